@@ -1,0 +1,35 @@
+// Counts heap allocations made by the calling thread while counting is armed,
+// through a replacement of the global operator new/delete. Linked (as an object
+// library) into the executables that must prove "no allocation after init".
+#pragma once
+
+#include <cstdint>
+
+namespace zonemap::os {
+
+struct AllocationCounts {
+  std::int64_t allocations = 0;
+  std::int64_t frees = 0;
+};
+
+// Arms counting for the calling thread (until disarmed) and returns its counts so far.
+void arm_allocation_counting(bool armed);
+AllocationCounts thread_allocation_counts();
+
+// Counts what happens in the calling thread during its lifetime.
+class AllocationScope {
+ public:
+  AllocationScope() : before_(thread_allocation_counts()) { arm_allocation_counting(true); }
+  ~AllocationScope() { arm_allocation_counting(false); }
+  AllocationScope(const AllocationScope&) = delete;
+  AllocationScope& operator=(const AllocationScope&) = delete;
+  AllocationCounts counted() const {
+    const AllocationCounts now = thread_allocation_counts();
+    return {now.allocations - before_.allocations, now.frees - before_.frees};
+  }
+
+ private:
+  AllocationCounts before_;
+};
+
+}  // namespace zonemap::os

@@ -1,0 +1,89 @@
+// Files a replay run writes (FORMATS.md §3, §4) and the height-profile picture
+// (paper fig. 11). Host side: these run after the mapping loop or, for the height
+// profile, fold zones into storage reserved before the loop.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "zonemap/mapper.hpp"
+#include "zonemap/zone_map.hpp"
+
+namespace zonemap::hal {
+
+struct RunStats {
+  std::int64_t frames_in = 0;
+  std::int64_t frames_mapped = 0;
+  std::int64_t frames_skipped_no_pose = 0;
+  std::int64_t frames_rejected = 0;
+  double frame_ms_p50 = 0.0;
+  double frame_ms_p99 = 0.0;
+  double frame_ms_max = 0.0;
+  std::int64_t heap_allocations_after_init = 0;
+  std::int64_t heap_frees_after_init = 0;
+  std::uint64_t static_memory_bytes = 0;
+  std::int64_t zones_allocated = 0;
+  std::int64_t zones_discarded = 0;
+  std::int64_t features = 0;
+  // Extensions (FORMATS.md allows new keys).
+  std::int64_t frames_rejected_bad_pose = 0;
+  std::int64_t frames_rejected_bad_image = 0;
+  std::int64_t frames_rejected_time_order = 0;
+  std::int64_t poses_rejected = 0;
+  std::int64_t left_images_rejected = 0;
+  std::int64_t rays_hit = 0;
+  std::int64_t rays_free = 0;
+  std::int64_t pixels_sky = 0;
+  std::int64_t pixels_missing = 0;
+  std::int64_t pixels_too_near = 0;
+  std::int64_t occupied_cells_final = 0;
+  std::int64_t height_profile_columns_outside = 0;
+  std::uint64_t local_grid_bytes = 0;
+  std::uint64_t zone_pool_bytes = 0;
+};
+
+// Percentile by nearest rank over an unsorted sample (copied and sorted).
+double percentile(std::vector<double> values, double fraction);
+
+bool write_stats_json(const std::string& path, const RunStats& stats, std::string* error);
+
+// Occupied cells (value above the occupied threshold) of the zones holding a grid.
+// Returns the number of points written, or -1 on error.
+std::int64_t write_occupied_ply(const std::string& path, Mapper& mapper, std::string* error);
+
+// The paper's height profile: for each (x, y) column the highest occupied cell.
+// Covers a fixed rectangle of columns reserved at construction; zones are folded
+// in when they are discarded (it is a ZoneObserver) and once more at the end.
+class HeightProfile : public ZoneObserver {
+ public:
+  HeightProfile(std::int32_t min_x, std::int32_t min_y, std::int32_t max_x, std::int32_t max_y,
+                FusedCell occupied_threshold, bool world_z_up);
+
+  void fold(const ZoneView& zone);
+  void on_zone_allocated(ZoneView&) override {}
+  void on_zone_discarding(const ZoneView& zone) override { fold(zone); }
+
+  // Columns seen while folding that fell outside the reserved rectangle.
+  std::int64_t columns_outside() const { return columns_outside_; }
+  // Highest occupied cell index (in "up" terms: z, or -z for NED) or false if none.
+  bool top(std::int32_t x, std::int32_t y, std::int32_t* top_cell) const;
+
+  // Draws the picture: colour = height of the top cell, blank = unknown, the
+  // trajectory (world positions) in black, a colour bar with heights in metres and
+  // a scale bar. `objects` (optional) are outlined as rectangles [min x, min y, max x, max y].
+  bool write_png(const std::string& path, double cell_size_m,
+                 const std::vector<Eigen::Vector3d>& trajectory,
+                 const std::vector<Eigen::Vector4d>& outlines, std::string* error) const;
+
+ private:
+  std::int32_t min_x_, min_y_, width_, height_;
+  FusedCell threshold_;
+  bool z_up_;
+  std::vector<std::int32_t> tops_;
+  std::int64_t columns_outside_ = 0;
+};
+
+}  // namespace zonemap::hal

@@ -1,0 +1,178 @@
+#include "hal/replay/sequence.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "hal/replay/png_io.hpp"
+#include "hal/replay/yaml_config.hpp"
+
+namespace zonemap::hal {
+namespace {
+
+bool is_blank_or_comment(const std::string& line) {
+  const auto first = line.find_first_not_of(" \t\r");
+  return first == std::string::npos || line[first] == '#';
+}
+
+std::string join(const std::string& dir, const std::string& relative) {
+  if (!relative.empty() && relative[0] == '/') return relative;
+  return (std::filesystem::path(dir) / relative).string();
+}
+
+}  // namespace
+
+bool load_frame_list(const std::string& list_path, const std::string& base_dir,
+                     std::vector<FrameListEntry>* entries, std::string* error) {
+  std::ifstream in(list_path);
+  if (!in) {
+    *error = list_path + ": cannot open";
+    return false;
+  }
+  entries->clear();
+  std::string line;
+  int number = 0;
+  double last_time = -INFINITY;
+  while (std::getline(in, line)) {
+    ++number;
+    if (is_blank_or_comment(line)) continue;
+    std::istringstream fields(line);
+    FrameListEntry entry;
+    std::string relative;
+    if (!(fields >> entry.time_s >> relative) || !std::isfinite(entry.time_s)) {
+      *error = list_path + ":" + std::to_string(number) + ": expected 'timestamp path'";
+      return false;
+    }
+    entry.path = join(base_dir, relative);
+    entry.line = number;
+    entry.time_in_order = entry.time_s > last_time;
+    if (entry.time_in_order) last_time = entry.time_s;
+    entries->push_back(std::move(entry));
+  }
+  return true;
+}
+
+bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
+                     std::vector<std::string>* warnings, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    *error = path + ": cannot open";
+    return false;
+  }
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (is_blank_or_comment(line)) continue;
+    std::istringstream fields(line);
+    std::string tokens[8];
+    double v[8];
+    int count = 0;
+    while (count < 8 && fields >> tokens[count]) ++count;
+    std::string extra;
+    if (count != 8 || (fields >> extra)) {
+      *error = path + ":" + std::to_string(number) + ": expected 'timestamp tx ty tz qx qy qz qw'";
+      return false;
+    }
+    for (int i = 0; i < 8; ++i) {
+      // strtod accepts "nan" and "inf", which are then refused as non-finite.
+      char* end = nullptr;
+      v[i] = std::strtod(tokens[i].c_str(), &end);
+      if (end == tokens[i].c_str() || *end != '\0') {
+        *error = path + ":" + std::to_string(number) + ": '" + tokens[i] + "' is not a number";
+        return false;
+      }
+    }
+    PoseSample sample;
+    sample.time_s = v[0];
+    sample.position = Eigen::Vector3d(v[1], v[2], v[3]);
+    sample.attitude = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
+    if (!track->append(sample)) {
+      ++*rejected;
+      const bool finite = std::all_of(v, v + 8, [](double x) { return std::isfinite(x); });
+      const char* reason = !finite ? "non-finite value"
+                           : std::fabs(sample.attitude.norm() - 1.0) > 1e-3
+                               ? "quaternion is not unit length"
+                               : "timestamp not after the previous pose";
+      warnings->push_back(path + ":" + std::to_string(number) + ": pose rejected: " + reason);
+    }
+  }
+  return true;
+}
+
+bool ReplaySequence::open(const std::string& dir, const std::string& camera_path,
+                          const MapConfig& config, std::string* error) {
+  if (!std::filesystem::is_directory(dir)) {
+    *error = dir + ": not a directory";
+    return false;
+  }
+  const std::string camera_file = camera_path.empty() ? join(dir, "camera.yaml") : camera_path;
+  if (!load_camera_yaml(camera_file, &camera_, error)) return false;
+  if (config.depth_scale_override > 0.0) camera_.depth_scale = config.depth_scale_override;
+
+  if (!load_frame_list(join(dir, "depth.txt"), dir, &frames_, error)) return false;
+
+  // Optional left images, matched to depth frames by timestamp (same clock).
+  left_paths_.assign(frames_.size(), std::string());
+  const std::string left_list = join(dir, "left.txt");
+  if (std::filesystem::exists(left_list)) {
+    std::vector<FrameListEntry> lefts;
+    if (!load_frame_list(left_list, dir, &lefts, error)) return false;
+    std::sort(lefts.begin(), lefts.end(),
+              [](const FrameListEntry& a, const FrameListEntry& b) { return a.time_s < b.time_s; });
+    for (std::size_t i = 0; i < frames_.size(); ++i) {
+      const double t = frames_[i].time_s;
+      auto it = std::lower_bound(lefts.begin(), lefts.end(), t,
+                                 [](const FrameListEntry& e, double x) { return e.time_s < x; });
+      for (auto candidate : {it, it == lefts.begin() ? it : it - 1}) {
+        if (candidate != lefts.end() && std::fabs(candidate->time_s - t) < 1e-3) {
+          left_paths_[i] = candidate->path;
+          break;
+        }
+      }
+    }
+  }
+
+  poses_ = PoseTrack(config.pose_max_gap_s, config.pose_tolerance_s);
+  const std::string trajectory = join(dir, "groundtruth.txt");
+  if (!std::filesystem::exists(trajectory)) {
+    *error = dir + ": no pose source (groundtruth.txt)";
+    return false;
+  }
+  poses_rejected_ = 0;
+  warnings_.clear();
+  return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error);
+}
+
+ReplayFrame ReplaySequence::make_frame() const {
+  ReplayFrame frame;
+  const auto pixels =
+      static_cast<std::size_t>(camera_.width) * static_cast<std::size_t>(camera_.height);
+  frame.depth.assign(pixels, 0);
+  frame.left.assign(pixels, 0);
+  return frame;
+}
+
+bool ReplaySequence::read(std::size_t i, ReplayFrame* frame, std::string* why) const {
+  const FrameListEntry& entry = frames_[i];
+  frame->time_s = entry.time_s;
+  frame->has_left = false;
+  frame->left_problem.clear();
+  if (!entry.time_in_order) {
+    *why = "depth.txt:" + std::to_string(entry.line) + ": timestamp not after the previous frame";
+    return false;
+  }
+  if (!read_png_gray16(entry.path, camera_.width, camera_.height, frame->depth.data(), why)) {
+    return false;
+  }
+  if (!left_paths_[i].empty()) {
+    // A bad left image only disables the sky filter for this frame: the depth is good.
+    frame->has_left = read_png_gray8(left_paths_[i], camera_.width, camera_.height,
+                                     frame->left.data(), &frame->left_problem);
+  }
+  return true;
+}
+
+}  // namespace zonemap::hal

@@ -1,0 +1,73 @@
+// Host HAL frame and pose source: a replay sequence directory (FORMATS.md §1;
+// a TUM RGB-D sequence is one). Everything is read and checked when opened;
+// frames are decoded one at a time into buffers reserved at open.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "zonemap/camera.hpp"
+#include "zonemap/config.hpp"
+#include "zonemap/pose_track.hpp"
+
+namespace zonemap::hal {
+
+struct FrameListEntry {
+  double time_s = 0.0;
+  std::string path;           // absolute or relative to the working directory
+  int line = 0;               // line in the list file, for messages
+  bool time_in_order = true;  // false: not after the previous frame's timestamp
+};
+
+// Reads a TUM-style list (`timestamp path`, '#' comments). A malformed line is an
+// error naming file and line. Out-of-order timestamps are kept but flagged so that
+// the frame is rejected and counted at replay.
+bool load_frame_list(const std::string& list_path, const std::string& base_dir,
+                     std::vector<FrameListEntry>* entries, std::string* error);
+
+// Reads a TUM trajectory (`timestamp tx ty tz qx qy qz qw`). A malformed line is an
+// error; a sample with NaN, a non-unit quaternion or a time not after the previous
+// one is refused, counted in *rejected and described in *warnings (file:line).
+bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
+                     std::vector<std::string>* warnings, std::string* error);
+
+struct ReplayFrame {
+  double time_s = 0.0;
+  std::vector<std::uint16_t> depth;  // reserved for width * height at open
+  std::vector<std::uint8_t> left;
+  bool has_left = false;
+  std::string left_problem;  // set when a left image exists but could not be used
+};
+
+class ReplaySequence {
+ public:
+  // camera_path: empty to use DIR/camera.yaml. depth_scale_override > 0 replaces
+  // the camera's depth scale (TUM RGB-D: 5000).
+  bool open(const std::string& dir, const std::string& camera_path, const MapConfig& config,
+            std::string* error);
+
+  std::size_t frame_count() const { return frames_.size(); }
+  const FrameListEntry& entry(std::size_t i) const { return frames_[i]; }
+  const CameraModel& camera() const { return camera_; }
+  const PoseTrack& poses() const { return poses_; }
+  int poses_rejected() const { return poses_rejected_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+  // Decodes frame i into `frame` (whose buffers must come from make_frame()).
+  // Returns false with the reason (file and problem) for a frame that must be
+  // rejected: unreadable, corrupt, wrong size or bit depth, time out of order.
+  bool read(std::size_t i, ReplayFrame* frame, std::string* why) const;
+  ReplayFrame make_frame() const;
+
+ private:
+  CameraModel camera_;
+  std::vector<FrameListEntry> frames_;
+  std::vector<std::string> left_paths_;  // per frame, empty when none
+  PoseTrack poses_{0.1, 0.02};
+  int poses_rejected_ = 0;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace zonemap::hal

@@ -1,0 +1,192 @@
+#include "hal/replay/yaml_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <functional>
+#include <map>
+#include <sstream>
+
+namespace zonemap::hal {
+namespace {
+
+std::string where(const std::string& path, const YAML::Node& node) {
+  const YAML::Mark mark = node.Mark();
+  return path + ":" + std::to_string(mark.line + 1);
+}
+
+// One section of a YAML mapping: each known key has a reader; any other key is an error.
+using Reader = std::function<void(const YAML::Node&)>;
+
+struct ParseError {
+  std::string message;
+};
+
+void read_section(const std::string& path, const YAML::Node& section, const std::string& name,
+                  const std::map<std::string, Reader>& readers) {
+  if (!section.IsMap()) {
+    throw ParseError{where(path, section) + ": '" + name + "' must be a mapping"};
+  }
+  for (const auto& item : section) {
+    const std::string key = item.first.as<std::string>();
+    const auto reader = readers.find(key);
+    if (reader == readers.end()) {
+      throw ParseError{where(path, item.first) + ": unknown key '" + key + "'" +
+                       (name.empty() ? "" : " in '" + name + "'")};
+    }
+    try {
+      reader->second(item.second);
+    } catch (const YAML::Exception&) {
+      throw ParseError{where(path, item.second) + ": bad value for '" + key + "'"};
+    }
+  }
+}
+
+template <typename T>
+Reader into(T* target) {
+  return [target](const YAML::Node& node) { *target = node.as<T>(); };
+}
+
+bool load_file(const std::string& path, YAML::Node* root, std::string* error) {
+  try {
+    *root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    *error = path + ": cannot open";
+    return false;
+  } catch (const YAML::Exception& e) {
+    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool load_map_config(const std::string& path, MapConfig* config, std::string* error) {
+  YAML::Node root;
+  if (!load_file(path, &root, error)) return false;
+  MapConfig c;
+  try {
+    auto zone_cells = [&](const YAML::Node& node) {
+      if (!node.IsSequence() || node.size() != 3) {
+        throw ParseError{where(path, node) + ": map.zone_cells must be [nx, ny, nz]"};
+      }
+      for (int i = 0; i < 3; ++i) c.zone_cells[static_cast<std::size_t>(i)] = node[i].as<int>();
+    };
+    auto section = [&](const std::string& name, std::map<std::string, Reader> readers) {
+      return [&path, name, readers](const YAML::Node& node) {
+        read_section(path, node, name, readers);
+      };
+    };
+    read_section(
+        path, root, "",
+        {{"map",
+          section("map", {{"cell_size_m", into(&c.cell_size_m)}, {"zone_cells", zone_cells}})},
+         {"sensor", section("sensor", {{"d_min_m", into(&c.d_min_m)},
+                                       {"d_max_m", into(&c.d_max_m)},
+                                       {"pixel_step", into(&c.pixel_step)}})},
+         {"blur", section("blur", {{"radius", into(&c.blur_radius)}})},
+         {"fusion", section("fusion", {{"saturation", into(&c.saturation_units)},
+                                       {"occupied_threshold", into(&c.occupied_threshold_units)},
+                                       {"free_threshold", into(&c.free_threshold_units)}})},
+         {"sky_filter", section("sky_filter", {{"enabled", into(&c.sky.enabled)},
+                                               {"min_intensity", into(&c.sky.min_intensity)},
+                                               {"max_gradient", into(&c.sky.max_gradient)}})},
+         {"pose", section("pose", {{"max_gap_s", into(&c.pose_max_gap_s)},
+                                   {"tolerance_s", into(&c.pose_tolerance_s)}})},
+         {"camera", section("camera", {{"depth_scale", into(&c.depth_scale_override)}})}});
+  } catch (const ParseError& e) {
+    *error = e.message;
+    return false;
+  } catch (const YAML::Exception& e) {
+    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  }
+  const std::string invalid = validate(c);
+  if (!invalid.empty()) {
+    *error = path + ": " + invalid;
+    return false;
+  }
+  *config = c;
+  return true;
+}
+
+std::string validate_camera(const CameraModel& k) {
+  std::ostringstream why;
+  if (k.width < 1 || k.height < 1 || k.width > kMaxImageWidth || k.height > kMaxImageHeight) {
+    why << "width and height must be in [1, " << kMaxImageWidth << "] x [1, " << kMaxImageHeight
+        << "]";
+  } else if (!(k.fx > 0.0) || !(k.fy > 0.0) || !std::isfinite(k.fx) || !std::isfinite(k.fy)) {
+    why << "fx and fy must be > 0";
+  } else if (!std::isfinite(k.cx) || !std::isfinite(k.cy)) {
+    why << "cx and cy must be finite";
+  } else if (!(k.baseline_m > 0.0) || !(k.match_sigma_px > 0.0)) {
+    why << "baseline_m and match_sigma_px must be > 0";
+  } else if (!(k.depth_scale > 0.0) || !std::isfinite(k.depth_scale)) {
+    why << "depth_scale must be > 0";
+  } else if (!k.body_T_camera.matrix().allFinite()) {
+    why << "body_T_camera must be finite";
+  }
+  return why.str();
+}
+
+bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string* error) {
+  YAML::Node root;
+  if (!load_file(path, &root, error)) return false;
+  CameraModel k;
+  bool seen_width = false, seen_height = false, seen_fx = false, seen_fy = false;
+  try {
+    auto body_pose = [&](const YAML::Node& node) {
+      std::vector<double> t{0, 0, 0};
+      std::vector<double> q{0, 0, 0, 1};
+      read_section(path, node, "body_T_camera", {{"t", into(&t)}, {"q", into(&q)}});
+      if (t.size() != 3 || q.size() != 4) {
+        throw ParseError{where(path, node) + ": body_T_camera needs t: [x, y, z], q: [x, y, z, w]"};
+      }
+      const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
+      if (!std::isfinite(quat.norm()) || std::fabs(quat.norm() - 1.0) > 1e-3) {
+        throw ParseError{where(path, node) + ": body_T_camera.q is not a unit quaternion"};
+      }
+      k.body_T_camera = Eigen::Isometry3d::Identity();
+      k.body_T_camera.linear() = quat.normalized().toRotationMatrix();
+      k.body_T_camera.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+    };
+    auto flag = [](bool* seen, Reader r) {
+      return [seen, r](const YAML::Node& n) {
+        r(n);
+        *seen = true;
+      };
+    };
+    read_section(path, root, "",
+                 {{"width", flag(&seen_width, into(&k.width))},
+                  {"height", flag(&seen_height, into(&k.height))},
+                  {"fx", flag(&seen_fx, into(&k.fx))},
+                  {"fy", flag(&seen_fy, into(&k.fy))},
+                  {"cx", into(&k.cx)},
+                  {"cy", into(&k.cy)},
+                  {"baseline_m", into(&k.baseline_m)},
+                  {"match_sigma_px", into(&k.match_sigma_px)},
+                  {"depth_scale", into(&k.depth_scale)},
+                  {"world_z_up", into(&k.world_z_up)},
+                  {"body_T_camera", body_pose}});
+  } catch (const ParseError& e) {
+    *error = e.message;
+    return false;
+  } catch (const YAML::Exception& e) {
+    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  }
+  if (!seen_width || !seen_height || !seen_fx || !seen_fy) {
+    *error = path + ": width, height, fx and fy are required";
+    return false;
+  }
+  const std::string invalid = validate_camera(k);
+  if (!invalid.empty()) {
+    *error = path + ": " + invalid;
+    return false;
+  }
+  *camera = k;
+  return true;
+}
+
+}  // namespace zonemap::hal

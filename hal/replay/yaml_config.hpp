@@ -1,0 +1,20 @@
+// Loading of the mapping configuration (config/*.yaml) and of camera.yaml
+// (FORMATS.md §1). Strict: an unknown key, a wrong type or an out-of-range value
+// is an error that names the file and line.
+#pragma once
+
+#include <string>
+
+#include "zonemap/camera.hpp"
+#include "zonemap/config.hpp"
+
+namespace zonemap::hal {
+
+bool load_map_config(const std::string& path, MapConfig* config, std::string* error);
+bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string* error);
+
+// Checks a camera model's values (sizes within the build maxima, positive focal
+// lengths, baseline, sigma and depth scale). Empty string when usable.
+std::string validate_camera(const CameraModel& camera);
+
+}  // namespace zonemap::hal

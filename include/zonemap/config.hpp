@@ -1,0 +1,51 @@
+// Mapping configuration (loaded by hal/, validated here so every front end
+// applies the same limits).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+
+namespace zonemap {
+
+// Build-time maxima: the runtime configuration must stay within them. The zone
+// pool reserves 8 zones of the configured size, so the largest zone is what
+// bounds memory (the paper's flight-2 zone, 160x160x80, is 2,048,000 cells).
+inline constexpr std::size_t kMaxZoneCells = 4'194'304;  // e.g. 256x256x64
+inline constexpr int kMaxZoneEdgeCells = 1024;
+inline constexpr int kMaxImageWidth = 2048;
+inline constexpr int kMaxImageHeight = 2048;
+inline constexpr int kZonesHeld = 8;  // a zone-sized cube overlaps at most 2x2x2 zones
+
+struct SkyFilterConfig {
+  bool enabled = true;
+  int min_intensity = 200;  // left-image brightness that may be sky (0..255)
+  int max_gradient = 8;     // largest 3x3 neighbour difference of a low-texture region
+};
+
+struct MapConfig {
+  double cell_size_m = 1.0;
+  std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
+  double d_min_m = 8.0;
+  double d_max_m = 50.0;
+  int pixel_step = 1;                     // 1 maps every pixel, as the paper does
+  int blur_radius = 1;                    // binomial kernel radius (0 = no blur)
+  double saturation_units = 64.0;         // |fused cell| limit, in sensor-model units
+  double occupied_threshold_units = 1.5;  // fused value above which a cell is occupied
+  double free_threshold_units = -1.0;     // fused value below which a cell is free
+  SkyFilterConfig sky;
+  double pose_max_gap_s = 0.1;        // largest gap between two poses interpolated over
+  double pose_tolerance_s = 0.02;     // nearest pose accepted at the ends of a trajectory
+  double depth_scale_override = 0.0;  // > 0 replaces camera.yaml's depth_scale (TUM: 5000)
+};
+
+// Returns an empty string when the configuration is usable, else what is wrong.
+std::string validate(const MapConfig& config);
+
+inline std::size_t zone_cell_count(const MapConfig& config) {
+  return static_cast<std::size_t>(config.zone_cells[0]) *
+         static_cast<std::size_t>(config.zone_cells[1]) *
+         static_cast<std::size_t>(config.zone_cells[2]);
+}
+
+}  // namespace zonemap

@@ -1,0 +1,68 @@
+// The local grid M̂ of paper §III-C: one frame's rays drawn around the camera
+// with max-write, then a gaussian (binomial) blur. Fixed point, see cell.hpp.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "zonemap/cell.hpp"
+#include "zonemap/sensor_model.hpp"
+
+namespace zonemap {
+
+class LocalGrid {
+ public:
+  // Reserves the cells (and the blur's scratch row) once. dims must each be >= 1.
+  explicit LocalGrid(const std::array<int, 3>& dims);
+
+  // Starts a new frame with its minimum corner at world cell `origin`.
+  void reset(const CellIndex& origin);
+
+  // Draws one ray by exact voxel traversal. `start` is the ray origin and
+  // `direction` the change of position per metre of δ, both in grid units (cells,
+  // relative to the grid's minimum corner). Parts outside the grid are omitted.
+  // Returns the number of cells visited (bounded by the sum of the dimensions).
+  int draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& direction,
+               const RayProfile& ray);
+
+  // Max-write of one fixed-point value (exposed for tests and feature re-integration).
+  void write_max(int x, int y, int z, LocalCell value) {
+    LocalCell& cell = cells_[index(x, y, z)];
+    if (cell == kUntouched || value > cell) cell = value;
+  }
+
+  // Turns untouched cells into 0 (unknown) and applies the separable binomial blur
+  // of the given radius (1: [1 2 1]/4, 2: [1 4 6 4 1]/16) along x, y and z. Values
+  // outside the grid count as unknown (0). Rounds half away from zero, so the blur
+  // is symmetric in sign.
+  void finish(int blur_radius);
+
+  LocalCell at(int x, int y, int z) const { return cells_[index(x, y, z)]; }
+  const LocalCell* data() const { return cells_.get(); }
+  const std::array<int, 3>& dims() const { return dims_; }
+  const CellIndex& origin() const { return origin_; }
+  std::size_t cell_count() const { return cell_count_; }
+  std::size_t reserved_bytes() const;
+
+  std::size_t index(int x, int y, int z) const {
+    return static_cast<std::size_t>(x) +
+           static_cast<std::size_t>(dims_[0]) *
+               (static_cast<std::size_t>(y) +
+                static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z));
+  }
+
+ private:
+  void blur_axis(int axis, int radius);
+
+  std::array<int, 3> dims_;
+  std::size_t cell_count_;
+  CellIndex origin_;
+  std::unique_ptr<LocalCell[]> cells_;
+  std::unique_ptr<std::int16_t[]> line_;  // one line of cells, padded by the kernel radius
+};
+
+}  // namespace zonemap

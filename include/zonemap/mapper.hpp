@@ -1,0 +1,78 @@
+// One mapping step (paper §III): depth frame + camera pose -> local grid M̂
+// (sensor model, ray traversal, max-write, blur) -> fused into the zones (eq. 7).
+// Everything is reserved in the constructor; integrate() does not allocate,
+// lock, throw or do I/O, and its loops are bounded by the image and grid sizes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Geometry>
+
+#include "zonemap/camera.hpp"
+#include "zonemap/config.hpp"
+#include "zonemap/local_grid.hpp"
+#include "zonemap/zone_map.hpp"
+
+namespace zonemap {
+
+struct DepthFrameView {
+  const std::uint16_t* depth = nullptr;  // row-major, width x height, 0 = no measurement
+  const std::uint8_t* left = nullptr;    // optional left intensity image, same size
+  int width = 0;
+  int height = 0;
+};
+
+enum class FrameStatus : std::uint8_t {
+  kMapped,
+  kBadPose,   // non-finite or non-rigid pose: nothing mapped
+  kBadFrame,  // missing buffer or size different from the camera model
+};
+
+struct FrameReport {
+  FrameStatus status = FrameStatus::kMapped;
+  std::int32_t rays_hit = 0;         // pixels with a depth in [d_min, d_max]
+  std::int32_t rays_free = 0;        // depth beyond d_max, or sky: free up to d_max
+  std::int32_t pixels_sky = 0;       // missing depth classified as sky
+  std::int32_t pixels_missing = 0;   // missing depth, not sky: ignored
+  std::int32_t pixels_too_near = 0;  // depth below d_min: ignored
+  std::int32_t zones_allocated = 0;
+  std::int64_t cells_visited = 0;
+};
+
+// True when the pose is finite and its rotation is orthonormal with det +1.
+bool is_valid_pose(const Eigen::Isometry3d& pose);
+
+class Mapper {
+ public:
+  // `config` must have passed validate(); the camera must fit kMaxImage*.
+  Mapper(const MapConfig& config, const CameraModel& camera);
+
+  FrameReport integrate(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera);
+
+  // The world cell that contains a world point.
+  CellIndex cell_of(const Eigen::Vector3d& point) const;
+  Eigen::Vector3d cell_center(const CellIndex& cell) const;
+
+  ZoneMap& zones() { return zones_; }
+  const ZoneMap& zones() const { return zones_; }
+  const LocalGrid& local_grid() const { return local_; }
+  const MapConfig& config() const { return config_; }
+  const CameraModel& camera() const { return camera_; }
+  std::size_t reserved_bytes() const { return zones_.reserved_bytes() + local_.reserved_bytes(); }
+
+  FusedCell occupied_threshold() const { return occupied_threshold_; }
+  FusedCell free_threshold() const { return free_threshold_; }
+
+ private:
+  bool is_sky(const std::uint8_t* left, int u, int v) const;
+
+  MapConfig config_;
+  CameraModel camera_;
+  LocalGrid local_;
+  ZoneMap zones_;
+  FusedCell occupied_threshold_;
+  FusedCell free_threshold_;
+};
+
+}  // namespace zonemap

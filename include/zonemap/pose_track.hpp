@@ -1,0 +1,46 @@
+// Camera poses over time, associated to depth frames by timestamp: linear
+// interpolation of the position and slerp of the attitude between the two
+// samples around the frame time (paper §III-A: the pose at the time the image
+// was recorded).
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace zonemap {
+
+struct PoseSample {
+  double time_s = 0.0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond attitude = Eigen::Quaterniond::Identity();  // world <- camera, unit
+};
+
+enum class PoseLookup { kInterpolated, kNearest, kNoPose };
+
+class PoseTrack {
+ public:
+  // max_gap_s: the largest interval between two samples that is interpolated over.
+  // tolerance_s: outside the samples (or across a larger gap) the nearest sample is
+  // used only if it is this close; otherwise the frame has no pose.
+  PoseTrack(double max_gap_s, double tolerance_s)
+      : max_gap_s_(max_gap_s), tolerance_s_(tolerance_s) {}
+
+  void reserve(std::size_t n) { samples_.reserve(n); }
+  // Samples must come with strictly increasing times and unit quaternions; a
+  // sample that does not is refused (returns false) so the caller can count it.
+  bool append(const PoseSample& sample);
+
+  PoseLookup lookup(double time_s, Eigen::Isometry3d* world_T_camera) const;
+
+  std::size_t size() const { return samples_.size(); }
+  const std::vector<PoseSample>& samples() const { return samples_; }
+
+ private:
+  double max_gap_s_;
+  double tolerance_s_;
+  std::vector<PoseSample> samples_;
+};
+
+}  // namespace zonemap

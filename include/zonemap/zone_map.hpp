@@ -1,0 +1,114 @@
+// The global grid M of paper §III-D: the world is cut into fixed cuboid zones
+// the size of the sensor environment; only the (at most 8) zones that the
+// environment cube around the camera overlaps hold a grid. Zone buffers come
+// from a pool reserved at construction and are reused, never allocated later.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include "zonemap/cell.hpp"
+#include "zonemap/config.hpp"
+
+namespace zonemap {
+
+class LocalGrid;
+
+struct ZoneKey {
+  std::int32_t i = 0;
+  std::int32_t j = 0;
+  std::int32_t k = 0;
+  friend constexpr bool operator==(const ZoneKey&, const ZoneKey&) = default;
+};
+
+// Read/write view of one zone that holds a grid.
+struct ZoneView {
+  ZoneKey key;
+  CellIndex origin;         // world cell of the zone's minimum corner
+  std::array<int, 3> dims;  // cells per axis
+  FusedCell* cells;         // x fastest, then y, then z
+
+  std::size_t index(int x, int y, int z) const {
+    return static_cast<std::size_t>(x) +
+           static_cast<std::size_t>(dims[0]) *
+               (static_cast<std::size_t>(y) +
+                static_cast<std::size_t>(dims[1]) * static_cast<std::size_t>(z));
+  }
+};
+
+// Told when a zone gets a grid (to re-integrate features, §IV-B) and just before
+// its grid is discarded (to extract features, §IV-A). Called on the mapping path:
+// implementations must not allocate or block.
+class ZoneObserver {
+ public:
+  virtual ~ZoneObserver() = default;
+  virtual void on_zone_allocated(ZoneView& zone) = 0;
+  virtual void on_zone_discarding(const ZoneView& zone) = 0;
+};
+
+class ZoneMap {
+ public:
+  // Reserves kZonesHeld zone buffers of the configured size. The configuration
+  // must have passed validate().
+  explicit ZoneMap(const MapConfig& config);
+
+  void set_observer(ZoneObserver* observer) { observer_ = observer; }
+
+  // The environment cube (zone-sized) centred on `camera_cell`: its minimum corner.
+  CellIndex environment_origin(const CellIndex& camera_cell) const;
+
+  // Makes the zones overlapping the environment with minimum corner `origin` hold
+  // a grid: new ones are taken from the pool and cleared, zones left behind are
+  // discarded. Returns how many zones were newly allocated.
+  int move_environment(const CellIndex& origin);
+
+  // Eq. (7): m_t = m_{t-1} + m̂_t for every cell of the local grid, saturating at
+  // ±limit. The local grid's origin must be the current environment origin.
+  void fuse(const LocalGrid& local);
+
+  // The fused value of a world cell, or false when no zone holds a grid there.
+  bool value_at(const CellIndex& cell, FusedCell* value) const;
+
+  ZoneKey key_of(const CellIndex& cell) const;
+
+  int live_zone_count() const;
+  // Visits the zones that hold a grid; `fn(ZoneView&)`.
+  template <typename Fn>
+  void for_each_live_zone(Fn&& fn) {
+    for (auto& slot : slots_) {
+      if (slot.live) {
+        ZoneView view = view_of(slot);
+        fn(view);
+      }
+    }
+  }
+
+  std::int64_t zones_allocated() const { return zones_allocated_; }
+  std::int64_t zones_discarded() const { return zones_discarded_; }
+  std::size_t reserved_bytes() const { return cells_per_zone_ * kZonesHeld * sizeof(FusedCell); }
+  FusedCell limit() const { return limit_; }
+  const std::array<int, 3>& zone_dims() const { return dims_; }
+
+ private:
+  struct Slot {
+    ZoneKey key;
+    bool live = false;
+    FusedCell* cells = nullptr;
+  };
+  ZoneView view_of(const Slot& slot) const;
+  Slot* find(const ZoneKey& key);
+  const Slot* find(const ZoneKey& key) const;
+
+  std::array<int, 3> dims_;
+  std::size_t cells_per_zone_;
+  FusedCell limit_;
+  std::unique_ptr<FusedCell[]> pool_;
+  std::array<Slot, kZonesHeld> slots_{};
+  ZoneObserver* observer_ = nullptr;
+  std::int64_t zones_allocated_ = 0;
+  std::int64_t zones_discarded_ = 0;
+};
+
+}  // namespace zonemap

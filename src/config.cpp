@@ -1,0 +1,46 @@
+#include "zonemap/config.hpp"
+
+#include "zonemap/cell.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace zonemap {
+
+std::string validate(const MapConfig& c) {
+  std::ostringstream why;
+  if (!(c.cell_size_m > 0.0) || !std::isfinite(c.cell_size_m)) {
+    why << "map.cell_size_m must be > 0 (got " << c.cell_size_m << ")";
+  } else if (c.zone_cells[0] < 2 || c.zone_cells[1] < 2 || c.zone_cells[2] < 2 ||
+             c.zone_cells[0] > kMaxZoneEdgeCells || c.zone_cells[1] > kMaxZoneEdgeCells ||
+             c.zone_cells[2] > kMaxZoneEdgeCells) {
+    why << "map.zone_cells must each be in [2, " << kMaxZoneEdgeCells << "]";
+  } else if (zone_cell_count(c) > kMaxZoneCells) {
+    why << "map.zone_cells holds " << zone_cell_count(c) << " cells, more than the build maximum "
+        << kMaxZoneCells;
+  } else if (!(c.d_min_m > 0.0) || !(c.d_max_m > c.d_min_m) || !std::isfinite(c.d_max_m)) {
+    why << "sensor.d_min_m must be > 0 and sensor.d_max_m > d_min_m (got " << c.d_min_m << ", "
+        << c.d_max_m << ")";
+  } else if (c.pixel_step < 1 || c.pixel_step > 64) {
+    why << "sensor.pixel_step must be in [1, 64]";
+  } else if (c.blur_radius < 0 || c.blur_radius > 2) {
+    why << "blur.radius must be 0, 1 or 2";
+  } else if (!(c.saturation_units >= 1.0) || c.saturation_units > kMaxFusedUnits) {
+    why << "fusion.saturation must be in [1, " << kMaxFusedUnits << "]";
+  } else if (!(c.occupied_threshold_units > 0.0) ||
+             c.occupied_threshold_units >= c.saturation_units) {
+    why << "fusion.occupied_threshold must be in (0, saturation)";
+  } else if (!(c.free_threshold_units < 0.0) || -c.free_threshold_units >= c.saturation_units) {
+    why << "fusion.free_threshold must be in (-saturation, 0)";
+  } else if (c.sky.min_intensity < 0 || c.sky.min_intensity > 255 || c.sky.max_gradient < 0 ||
+             c.sky.max_gradient > 255) {
+    why << "sky_filter.min_intensity and max_gradient must be in [0, 255]";
+  } else if (!(c.pose_max_gap_s > 0.0) || !(c.pose_tolerance_s >= 0.0)) {
+    why << "pose.max_gap_s must be > 0 and pose.tolerance_s >= 0";
+  } else if (c.depth_scale_override < 0.0 || !std::isfinite(c.depth_scale_override)) {
+    why << "camera.depth_scale must be > 0";
+  }
+  return why.str();
+}
+
+}  // namespace zonemap

@@ -1,0 +1,143 @@
+#include "zonemap/zone_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "zonemap/local_grid.hpp"
+
+namespace zonemap {
+
+ZoneMap::ZoneMap(const MapConfig& config)
+    : dims_(config.zone_cells),
+      cells_per_zone_(zone_cell_count(config)),
+      limit_(static_cast<FusedCell>(std::min(to_fixed(static_cast<float>(config.saturation_units)),
+                                             kMaxFusedUnits * kCellScale))),
+      pool_(new FusedCell[cells_per_zone_ * kZonesHeld]) {
+  for (std::size_t s = 0; s < slots_.size(); ++s) {
+    slots_[s].cells = pool_.get() + s * cells_per_zone_;
+  }
+}
+
+CellIndex ZoneMap::environment_origin(const CellIndex& camera_cell) const {
+  return CellIndex{camera_cell.x - dims_[0] / 2, camera_cell.y - dims_[1] / 2,
+                   camera_cell.z - dims_[2] / 2};
+}
+
+ZoneKey ZoneMap::key_of(const CellIndex& cell) const {
+  return ZoneKey{floor_div(cell.x, dims_[0]), floor_div(cell.y, dims_[1]),
+                 floor_div(cell.z, dims_[2])};
+}
+
+ZoneView ZoneMap::view_of(const Slot& slot) const {
+  return ZoneView{slot.key,
+                  CellIndex{slot.key.i * dims_[0], slot.key.j * dims_[1], slot.key.k * dims_[2]},
+                  dims_, slot.cells};
+}
+
+ZoneMap::Slot* ZoneMap::find(const ZoneKey& key) {
+  for (auto& slot : slots_) {
+    if (slot.live && slot.key == key) return &slot;
+  }
+  return nullptr;
+}
+
+const ZoneMap::Slot* ZoneMap::find(const ZoneKey& key) const {
+  for (const auto& slot : slots_) {
+    if (slot.live && slot.key == key) return &slot;
+  }
+  return nullptr;
+}
+
+int ZoneMap::live_zone_count() const {
+  return static_cast<int>(
+      std::count_if(slots_.begin(), slots_.end(), [](const Slot& s) { return s.live; }));
+}
+
+int ZoneMap::move_environment(const CellIndex& origin) {
+  const ZoneKey low = key_of(origin);
+  const ZoneKey high =
+      key_of(CellIndex{origin.x + dims_[0] - 1, origin.y + dims_[1] - 1, origin.z + dims_[2] - 1});
+  auto wanted = [&](const ZoneKey& k) {
+    return k.i >= low.i && k.i <= high.i && k.j >= low.j && k.j <= high.j && k.k >= low.k &&
+           k.k <= high.k;
+  };
+  // Discard first so that their buffers can serve the new zones.
+  for (auto& slot : slots_) {
+    if (slot.live && !wanted(slot.key)) {
+      if (observer_ != nullptr) observer_->on_zone_discarding(view_of(slot));
+      slot.live = false;
+      ++zones_discarded_;
+    }
+  }
+  int allocated = 0;
+  for (std::int32_t k = low.k; k <= high.k; ++k) {
+    for (std::int32_t j = low.j; j <= high.j; ++j) {
+      for (std::int32_t i = low.i; i <= high.i; ++i) {
+        const ZoneKey key{i, j, k};
+        if (find(key) != nullptr) continue;
+        // The environment is one zone in size, so at most 2x2x2 zones are wanted
+        // and a free slot always exists here.
+        Slot* free_slot = nullptr;
+        for (auto& slot : slots_) {
+          if (!slot.live) {
+            free_slot = &slot;
+            break;
+          }
+        }
+        if (free_slot == nullptr) continue;
+        free_slot->key = key;
+        free_slot->live = true;
+        std::fill_n(free_slot->cells, cells_per_zone_, FusedCell{0});
+        ++zones_allocated_;
+        ++allocated;
+        if (observer_ != nullptr) {
+          ZoneView view = view_of(*free_slot);
+          observer_->on_zone_allocated(view);
+        }
+      }
+    }
+  }
+  return allocated;
+}
+
+void ZoneMap::fuse(const LocalGrid& local) {
+  const CellIndex lo = local.origin();
+  const std::array<int, 3>& ld = local.dims();
+  const int lim = limit_;
+  for (auto& slot : slots_) {
+    if (!slot.live) continue;
+    const ZoneView zone = view_of(slot);
+    // Intersection of the local grid and the zone, in world cells.
+    const int x0 = std::max(lo.x, zone.origin.x);
+    const int x1 = std::min(lo.x + ld[0], zone.origin.x + dims_[0]);
+    const int y0 = std::max(lo.y, zone.origin.y);
+    const int y1 = std::min(lo.y + ld[1], zone.origin.y + dims_[1]);
+    const int z0 = std::max(lo.z, zone.origin.z);
+    const int z1 = std::min(lo.z + ld[2], zone.origin.z + dims_[2]);
+    if (x0 >= x1 || y0 >= y1 || z0 >= z1) continue;
+    const int row = x1 - x0;
+    for (int z = z0; z < z1; ++z) {
+      for (int y = y0; y < y1; ++y) {
+        const LocalCell* src = local.data() + local.index(x0 - lo.x, y - lo.y, z - lo.z);
+        FusedCell* dst =
+            zone.cells + zone.index(x0 - zone.origin.x, y - zone.origin.y, z - zone.origin.z);
+        for (int x = 0; x < row; ++x) {
+          if (src[x] == 0) continue;
+          const int sum = static_cast<int>(dst[x]) + static_cast<int>(src[x]);
+          dst[x] = static_cast<FusedCell>(std::clamp(sum, -lim, lim));
+        }
+      }
+    }
+  }
+}
+
+bool ZoneMap::value_at(const CellIndex& cell, FusedCell* value) const {
+  const Slot* slot = find(key_of(cell));
+  if (slot == nullptr) return false;
+  const ZoneView view = view_of(*slot);
+  *value = view.cells[view.index(cell.x - view.origin.x, cell.y - view.origin.y,
+                                 cell.z - view.origin.z)];
+  return true;
+}
+
+}  // namespace zonemap

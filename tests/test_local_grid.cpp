@@ -1,0 +1,168 @@
+// The local grid M̂: ray traversal, max-write, blur (paper §III-C).
+#include <gtest/gtest.h>
+
+#include "zonemap/local_grid.hpp"
+#include "zonemap/zone_map.hpp"
+
+namespace zonemap {
+namespace {
+
+RayProfile hit_ray(float d_min, float depth, float resolution) {
+  RayProfile ray;
+  ray.delta_begin = d_min;
+  ray.depth = depth;
+  ray.range_resolution = resolution;
+  ray.delta_end = depth + resolution;
+  return ray;
+}
+
+TEST(LocalGrid, SingleRayFreeThenPeakThenUnknown) {
+  LocalGrid grid({40, 5, 5});
+  grid.reset(CellIndex{});
+  // Along +x from the corner of cell (0, 2, 2): cell x spans δ in [x, x + 1].
+  // d = 20.5, Δd = 0.5: free up to δ = 19.5, peak at 20.5, no influence past 21.
+  const int visited =
+      grid.draw_ray({0.0f, 2.5f, 2.5f}, {1.0f, 0.0f, 0.0f}, hit_ray(2.0f, 20.5f, 0.5f));
+  EXPECT_EQ(visited, 19);  // cells 2..20
+  grid.finish(0);
+  EXPECT_EQ(grid.at(0, 2, 2), 0) << "before d_min: unknown";
+  EXPECT_EQ(grid.at(1, 2, 2), 0);
+  for (int x = 2; x <= 18; ++x) EXPECT_EQ(grid.at(x, 2, 2), -kCellScale) << "free at x=" << x;
+  EXPECT_EQ(grid.at(19, 2, 2), 0) << "δ in [19, 20]: m̂ rises from -1 to 0";
+  EXPECT_EQ(grid.at(20, 2, 2), kCellScale) << "the peak cell";
+  for (int x = 21; x < 40; ++x) EXPECT_EQ(grid.at(x, 2, 2), 0) << "unknown behind, x=" << x;
+  // Neighbouring rows untouched.
+  EXPECT_EQ(grid.at(20, 1, 2), 0);
+  EXPECT_EQ(grid.at(20, 2, 3), 0);
+}
+
+TEST(LocalGrid, DiagonalRayVisitsAConnectedChainOfCells) {
+  LocalGrid grid({16, 16, 16});
+  grid.reset(CellIndex{});
+  const Eigen::Vector3f dir = Eigen::Vector3f(1.0f, 0.7f, 0.3f);
+  const int visited = grid.draw_ray({0.5f, 0.5f, 0.5f}, dir, hit_ray(0.0f, 14.0f, 0.3f));
+  grid.finish(0);
+  // Exact traversal: every step changes one coordinate, so the count is the
+  // Manhattan distance from the first to the last cell plus one.
+  const Eigen::Vector3f end = Eigen::Vector3f(0.5f, 0.5f, 0.5f) + (14.0f + 0.3f) * dir;
+  const int manhattan = static_cast<int>(std::floor(std::min(end.x(), 15.99f))) +
+                        static_cast<int>(std::floor(end.y())) +
+                        static_cast<int>(std::floor(end.z()));
+  EXPECT_EQ(visited, manhattan + 1);
+  const Eigen::Vector3f hit = Eigen::Vector3f(0.5f, 0.5f, 0.5f) + 14.0f * dir;
+  if (hit.x() < 16.0f) {
+    EXPECT_EQ(
+        grid.at(static_cast<int>(hit.x()), static_cast<int>(hit.y()), static_cast<int>(hit.z())),
+        kCellScale);
+  }
+}
+
+TEST(LocalGrid, RaysLeavingTheGridAreClipped) {
+  LocalGrid grid({8, 8, 8});
+  grid.reset(CellIndex{});
+  // Starts outside, crosses the grid, ends outside: only inside cells are written.
+  const int visited =
+      grid.draw_ray({-5.0f, 4.5f, 4.5f}, {1.0f, 0.0f, 0.0f}, hit_ray(0.0f, 30.0f, 1.0f));
+  EXPECT_EQ(visited, 8);
+  // Entirely outside: nothing.
+  EXPECT_EQ(grid.draw_ray({-5.0f, 20.5f, 4.5f}, {1.0f, 0.0f, 0.0f}, hit_ray(0.0f, 30.0f, 1.0f)), 0);
+}
+
+TEST(LocalGrid, MaxWriteKeepsTheHighestValueWhateverTheOrder) {
+  for (int order = 0; order < 2; ++order) {
+    LocalGrid grid({20, 20, 4});
+    grid.reset(CellIndex{});
+    // Ray A along +x through row y = 10 ends on cell (10, 10); ray B along +y
+    // through column x = 10 passes cell (10, 10) as free space.
+    const auto ray_a = [&] {
+      grid.draw_ray({0.0f, 10.5f, 1.5f}, {1.0f, 0, 0}, hit_ray(1.0f, 10.5f, 0.4f));
+    };
+    const auto ray_b = [&] {
+      grid.draw_ray({10.5f, 0.0f, 1.5f}, {0, 1.0f, 0}, hit_ray(1.0f, 18.5f, 0.4f));
+    };
+    if (order == 0) {
+      ray_a();
+      ray_b();
+    } else {
+      ray_b();
+      ray_a();
+    }
+    grid.finish(0);
+    EXPECT_EQ(grid.at(10, 10, 1), kCellScale) << "order " << order;
+    EXPECT_EQ(grid.at(10, 5, 1), -kCellScale);
+    EXPECT_EQ(grid.at(5, 10, 1), -kCellScale);
+  }
+}
+
+TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
+  const std::array<int, 3> dims = {20, 20, 20};
+  LocalGrid grid({20, 20, 20});
+  LocalGrid negated({20, 20, 20});
+  grid.reset(CellIndex{});
+  negated.reset(CellIndex{});
+  for (int z = 0; z < dims[2]; ++z)
+    for (int y = 0; y < dims[1]; ++y)
+      for (int x = 0; x < dims[0]; ++x) {
+        const bool inside = x >= 8 && x < 12 && y >= 8 && y < 12 && z >= 8 && z < 12;
+        const LocalCell v = static_cast<LocalCell>(inside ? kCellScale : -kCellScale / 2);
+        grid.write_max(x, y, z, v);
+        negated.write_max(x, y, z, static_cast<LocalCell>(-v));
+      }
+  grid.finish(1);
+  negated.finish(1);
+  EXPECT_GT(grid.at(9, 9, 9), 0) << "an occupied block stays occupied";
+  EXPECT_GT(grid.at(10, 10, 10), kCellScale / 2);
+  EXPECT_LT(grid.at(4, 4, 4), 0) << "free space stays free";
+  EXPECT_EQ(grid.at(4, 4, 4), -kCellScale / 2) << "far from edges the blur of a constant is itself";
+  EXPECT_LT(grid.at(6, 10, 10), 0) << "two cells away from the block: still free";
+  for (int z = 0; z < dims[2]; ++z)
+    for (int y = 0; y < dims[1]; ++y)
+      for (int x = 0; x < dims[0]; ++x)
+        ASSERT_EQ(grid.at(x, y, z), -negated.at(x, y, z)) << x << "," << y << "," << z;
+  // The grid border blurs against unknown (0), so it weakens but keeps its sign.
+  EXPECT_LT(grid.at(0, 0, 0), 0);
+  EXPECT_GT(grid.at(0, 0, 0), -kCellScale / 2);
+}
+
+TEST(LocalGrid, UntouchedCellsBecomeUnknown) {
+  LocalGrid grid({4, 4, 4});
+  grid.reset(CellIndex{});
+  grid.finish(1);
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) EXPECT_EQ(grid.at(x, y, z), 0);
+}
+
+TEST(Fusion, AddsAndSaturatesAtTheConfiguredRange) {
+  MapConfig config;
+  config.zone_cells = {4, 4, 4};
+  config.saturation_units = 4.0;
+  config.occupied_threshold_units = 1.5;
+  ZoneMap zones(config);
+  LocalGrid local(config.zone_cells);
+  const CellIndex origin{0, 0, 0};  // exactly one zone
+  zones.move_environment(origin);
+  ASSERT_EQ(zones.live_zone_count(), 1);
+  for (int frame = 0; frame < 100; ++frame) {
+    local.reset(origin);
+    local.write_max(1, 1, 1, kCellScale);
+    local.write_max(2, 2, 2, -kCellScale);
+    local.write_max(3, 3, 3, kCellScale / 4);
+    local.finish(0);
+    zones.fuse(local);
+    FusedCell v = 0;
+    ASSERT_TRUE(zones.value_at({3, 3, 3}, &v));
+    // Eq. (7): the sum of the frames so far, until the limit.
+    EXPECT_EQ(v, std::min((frame + 1) * kCellScale / 4, 4 * kCellScale));
+  }
+  FusedCell v = 0;
+  ASSERT_TRUE(zones.value_at({1, 1, 1}, &v));
+  EXPECT_EQ(v, 4 * kCellScale);
+  ASSERT_TRUE(zones.value_at({2, 2, 2}, &v));
+  EXPECT_EQ(v, -4 * kCellScale);
+  ASSERT_TRUE(zones.value_at({0, 0, 0}, &v));
+  EXPECT_EQ(v, 0) << "unknown stays unknown";
+}
+
+}  // namespace
+}  // namespace zonemap

@@ -1,0 +1,189 @@
+// Zones (paper §III-D): the environment follows the camera, at most 8 zones hold
+// a grid, buffers come from the pool reserved at start-up.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <tuple>
+#include <vector>
+
+#include "hal/os/allocation_counter.hpp"
+#include "tools/sim/scene.hpp"
+#include "zonemap/mapper.hpp"
+
+namespace zonemap {
+namespace {
+
+struct RecordingObserver : ZoneObserver {
+  std::vector<ZoneKey> allocated;
+  std::vector<ZoneKey> discarded;
+  void on_zone_allocated(ZoneView& zone) override { allocated.push_back(zone.key); }
+  void on_zone_discarding(const ZoneView& zone) override { discarded.push_back(zone.key); }
+};
+
+MapConfig small_config() {
+  MapConfig config;
+  config.cell_size_m = 1.0;
+  config.zone_cells = {10, 10, 4};
+  config.d_min_m = 1.0;
+  config.d_max_m = 8.0;
+  return config;
+}
+
+TEST(ZoneMap, EnvironmentIsCentredOnTheCameraCell) {
+  ZoneMap zones(small_config());
+  const CellIndex origin = zones.environment_origin({23, -7, 1});
+  EXPECT_EQ(origin, (CellIndex{18, -12, -1}));
+}
+
+TEST(ZoneMap, KeysUseFloorDivisionForNegativeCells) {
+  ZoneMap zones(small_config());
+  EXPECT_EQ(zones.key_of({-1, 0, 0}), (ZoneKey{-1, 0, 0}));
+  EXPECT_EQ(zones.key_of({-10, 9, -4}), (ZoneKey{-1, 0, -1}));
+  EXPECT_EQ(zones.key_of({-11, 10, 3}), (ZoneKey{-2, 1, 0}));
+}
+
+TEST(ZoneMap, StraightFlightAcrossBoundariesAllocatesAndDiscards) {
+  ZoneMap zones(small_config());
+  RecordingObserver observer;
+  zones.set_observer(&observer);
+  std::set<const FusedCell*> buffers;
+  // Fly along +x from cell 2 to cell 47 at y = 5, z = 2 (zone centre in y and z).
+  for (int x = 2; x <= 47; ++x) {
+    const CellIndex camera{x, 5, 2};
+    const CellIndex origin = zones.environment_origin(camera);
+    zones.move_environment(origin);
+    EXPECT_LE(zones.live_zone_count(), kZonesHeld);
+    // Exactly the zones the environment overlaps hold a grid.
+    std::set<std::tuple<int, int, int>> live;
+    zones.for_each_live_zone([&](ZoneView& z) {
+      live.insert({z.key.i, z.key.j, z.key.k});
+      buffers.insert(z.cells);
+    });
+    std::set<std::tuple<int, int, int>> expected;
+    const ZoneKey lo = zones.key_of(origin);
+    const ZoneKey hi = zones.key_of({origin.x + 9, origin.y + 9, origin.z + 3});
+    for (int i = lo.i; i <= hi.i; ++i)
+      for (int j = lo.j; j <= hi.j; ++j)
+        for (int k = lo.k; k <= hi.k; ++k) expected.insert({i, j, k});
+    EXPECT_EQ(live, expected) << "camera x=" << x;
+  }
+  // Environment x range [x-5, x+4] runs from [-3, 6] to [42, 51]: zone columns
+  // -1..5 are each allocated once; all but the last two (4, 5) are discarded.
+  // The y range [0, 9] is one zone row and the z range [0, 3] one zone layer.
+  EXPECT_EQ(zones.zones_allocated(), 7);
+  EXPECT_EQ(zones.zones_discarded(), 5);
+  ASSERT_EQ(observer.allocated.size(), 7u);
+  ASSERT_EQ(observer.discarded.size(), 5u);
+  EXPECT_EQ(observer.discarded.front(), (ZoneKey{-1, 0, 0}));
+  EXPECT_EQ(observer.allocated.back(), (ZoneKey{5, 0, 0}));
+  EXPECT_LE(buffers.size(), static_cast<std::size_t>(kZonesHeld)) << "buffers come from the pool";
+}
+
+TEST(ZoneMap, DiagonalMoveHoldsEightZonesAtMost) {
+  ZoneMap zones(small_config());
+  int max_live = 0;
+  for (int s = 0; s < 60; ++s) {
+    zones.move_environment(zones.environment_origin({s, s, s / 3}));
+    max_live = std::max(max_live, zones.live_zone_count());
+    ASSERT_LE(zones.live_zone_count(), kZonesHeld);
+  }
+  EXPECT_EQ(max_live, 8) << "off-boundary positions overlap 2x2x2 zones";
+}
+
+TEST(ZoneMap, ReturningZoneStartsUnknown) {
+  ZoneMap zones(small_config());
+  LocalGrid local(small_config().zone_cells);
+  CellIndex origin = zones.environment_origin({5, 5, 2});
+  zones.move_environment(origin);
+  local.reset(origin);
+  local.write_max(5, 5, 2, kCellScale);  // world cell (5, 5, 2)
+  local.finish(0);
+  zones.fuse(local);
+  FusedCell v = 0;
+  ASSERT_TRUE(zones.value_at({5, 5, 2}, &v));
+  EXPECT_EQ(v, kCellScale);
+  zones.move_environment(zones.environment_origin({45, 5, 2}));
+  EXPECT_FALSE(zones.value_at({5, 5, 2}, &v)) << "the grid of a zone left behind is discarded";
+  zones.move_environment(zones.environment_origin({5, 5, 2}));
+  ASSERT_TRUE(zones.value_at({5, 5, 2}, &v));
+  EXPECT_EQ(v, 0) << "a re-allocated zone starts unknown (features re-integrate later)";
+}
+
+TEST(Mapper, NoHeapAllocationAfterInit) {
+  MapConfig config = small_config();
+  config.zone_cells = {40, 40, 16};
+  config.cell_size_m = 0.5;
+  config.d_min_m = 1.0;
+  config.d_max_m = 15.0;
+  CameraModel camera;
+  camera.width = 64;
+  camera.height = 48;
+  camera.fx = camera.fy = 60.0;
+  camera.cx = 31.5;
+  camera.cy = 23.5;
+  camera.baseline_m = 0.3;
+  camera.match_sigma_px = 0.25;
+  camera.depth_scale = 1000.0;
+  sim::Scene scene;
+  scene.boxes.push_back({"box", {6, -2, 0}, {8, 2, 3}});
+  std::vector<std::uint16_t> depth(64 * 48);
+  std::vector<std::uint8_t> left(64 * 48);
+  sim::Rng rng(7);
+
+  Mapper mapper(config, camera);  // all memory reserved here
+  DepthFrameView view{depth.data(), left.data(), camera.width, camera.height};
+  std::int64_t allocated_zones_before = 0;
+  os::AllocationCounts total;
+  for (int frame = 0; frame < 40; ++frame) {
+    // Fly 1 m per frame so that zone boundaries are crossed several times.
+    const Eigen::Isometry3d pose = sim::look_pose({frame * 1.0 - 20.0, 0.3 * frame, 2.0}, 0.0, 0.2);
+    sim::render(scene, camera, pose, sim::RenderOptions{}, rng, depth.data(), left.data());
+    os::AllocationScope scope;
+    const FrameReport report = mapper.integrate(view, pose);
+    const os::AllocationCounts c = scope.counted();
+    total.allocations += c.allocations;
+    total.frees += c.frees;
+    ASSERT_EQ(report.status, FrameStatus::kMapped);
+    if (frame == 0) allocated_zones_before = mapper.zones().zones_allocated();
+  }
+  EXPECT_GT(mapper.zones().zones_allocated(), allocated_zones_before) << "boundaries were crossed";
+  EXPECT_EQ(total.allocations, 0);
+  EXPECT_EQ(total.frees, 0);
+}
+
+TEST(Mapper, CountingReallyCountsAllocations) {
+  // Guards the proof above: an allocation in a counted scope is seen.
+  os::AllocationScope scope;
+  auto* p = new std::vector<int>(100);
+  delete p;
+  EXPECT_GE(scope.counted().allocations, 2);
+  EXPECT_GE(scope.counted().frees, 2);
+}
+
+TEST(Mapper, RejectsNonFinitePoseAndLeavesTheMapAlone) {
+  MapConfig config = small_config();
+  CameraModel camera;
+  camera.width = 8;
+  camera.height = 6;
+  camera.fx = camera.fy = 8.0;
+  camera.cx = 3.5;
+  camera.cy = 2.5;
+  camera.baseline_m = 0.3;
+  camera.match_sigma_px = 0.25;
+  Mapper mapper(config, camera);
+  std::vector<std::uint16_t> depth(48, 3000);
+  DepthFrameView view{depth.data(), nullptr, 8, 6};
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(mapper.integrate(view, pose).status, FrameStatus::kBadPose);
+  Eigen::Isometry3d sheared = Eigen::Isometry3d::Identity();
+  sheared.linear()(0, 1) = 0.5;
+  EXPECT_EQ(mapper.integrate(view, sheared).status, FrameStatus::kBadPose);
+  EXPECT_EQ(mapper.zones().live_zone_count(), 0);
+  DepthFrameView wrong_size{depth.data(), nullptr, 6, 8};
+  EXPECT_EQ(mapper.integrate(wrong_size, Eigen::Isometry3d::Identity()).status,
+            FrameStatus::kBadFrame);
+}
+
+}  // namespace
+}  // namespace zonemap

@@ -1,0 +1,188 @@
+#include "tools/replay/replay_run.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "hal/os/allocation_counter.hpp"
+#include "hal/replay/yaml_config.hpp"
+
+namespace zonemap::tools {
+namespace {
+constexpr std::int64_t kLoggedPerKind = 5;  // then only the totals in stats.json
+double mebibytes(std::uint64_t bytes) {
+  return static_cast<double>(bytes) / 1048576.0;
+}
+}  // namespace
+
+void ReplayRun::log_rejection(const char* kind, std::int64_t count,
+                              const std::string& message) const {
+  if (options_.quiet) return;
+  if (count <= kLoggedPerKind) {
+    std::fprintf(stderr, "\nzonemap-replay: frame %s: %s\n", kind, message.c_str());
+  }
+  if (count == kLoggedPerKind) {
+    std::fprintf(stderr, "zonemap-replay: further '%s' frames are counted, not logged\n", kind);
+  }
+}
+
+bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
+  options_ = options;
+  if (!hal::load_map_config(options.config_path, &config_, error)) return false;
+  if (!sequence_.open(options.sequence_dir, options.camera_path, config_, error)) return false;
+  if (sequence_.poses().size() == 0) {
+    *error = options.sequence_dir + "/groundtruth.txt: no usable pose";
+    return false;
+  }
+  if (!options.quiet) {
+    for (const auto& w : sequence_.warnings())
+      std::fprintf(stderr, "zonemap-replay: %s\n", w.c_str());
+  }
+  stats_ = hal::RunStats{};
+  stats_.poses_rejected = sequence_.poses_rejected();
+
+  mapper_ = std::make_unique<Mapper>(config_, sequence_.camera());
+
+  // The height profile covers every zone the flight can touch: the trajectory's
+  // extent plus one and a half zones on each side.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY);
+  Eigen::Vector3d hi = Eigen::Vector3d::Constant(-INFINITY);
+  for (const PoseSample& s : sequence_.poses().samples()) {
+    lo = lo.cwiseMin(s.position);
+    hi = hi.cwiseMax(s.position);
+  }
+  const CellIndex lo_cell = mapper_->cell_of(lo);
+  const CellIndex hi_cell = mapper_->cell_of(hi);
+  const auto& dims = config_.zone_cells;
+  height_ = std::make_unique<hal::HeightProfile>(
+      lo_cell.x - dims[0] * 3 / 2, lo_cell.y - dims[1] * 3 / 2, hi_cell.x + dims[0] * 3 / 2,
+      hi_cell.y + dims[1] * 3 / 2, mapper_->occupied_threshold(), sequence_.camera().world_z_up);
+  mapper_->zones().set_observer(height_.get());
+
+  const std::size_t n = sequence_.frame_count();
+  frame_ms_.reserve(n);
+  trajectory_.reserve(n);
+  mapped_frames_.reserve(n);
+  stats_.zone_pool_bytes = mapper_->zones().reserved_bytes();
+  stats_.local_grid_bytes = mapper_->local_grid().reserved_bytes();
+  stats_.static_memory_bytes = mapper_->reserved_bytes();
+  if (!options.quiet) {
+    const auto& cam = sequence_.camera();
+    std::fprintf(stderr,
+                 "zonemap-replay: %zu frames %dx%d, cells %.3f m, zones %dx%dx%d, d %.2f..%.2f m\n"
+                 "zonemap-replay: reserved %.1f MiB: zone pool %.1f MiB (8 x %zu cells x %zu B), "
+                 "local grid %.1f MiB\n",
+                 n, cam.width, cam.height, config_.cell_size_m, dims[0], dims[1], dims[2],
+                 config_.d_min_m, config_.d_max_m, mebibytes(stats_.static_memory_bytes),
+                 mebibytes(stats_.zone_pool_bytes), zone_cell_count(config_), sizeof(FusedCell),
+                 mebibytes(stats_.local_grid_bytes));
+  }
+  return true;
+}
+
+void ReplayRun::run() {
+  hal::ReplayFrame frame = sequence_.make_frame();
+  std::string why;
+  const std::size_t n = sequence_.frame_count();
+  const bool show_progress = options_.progress && isatty(STDERR_FILENO);
+  auto last_progress = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < n; ++i) {
+    ++stats_.frames_in;
+    // Decoding files is the host HAL's work, outside the mapping path's count.
+    if (!sequence_.read(i, &frame, &why)) {
+      ++stats_.frames_rejected;
+      if (!sequence_.entry(i).time_in_order) {
+        log_rejection("out of order", ++stats_.frames_rejected_time_order, why);
+      } else {
+        log_rejection("unreadable", ++stats_.frames_rejected_bad_image, why);
+      }
+      continue;
+    }
+    if (!frame.left_problem.empty()) {
+      ++stats_.left_images_rejected;
+      log_rejection("left image unusable (sky filter off)", stats_.left_images_rejected,
+                    frame.left_problem);
+    }
+    Eigen::Isometry3d pose;
+    if (sequence_.poses().lookup(frame.time_s, &pose) == PoseLookup::kNoPose) {
+      ++stats_.frames_skipped_no_pose;
+      char msg[96];
+      std::snprintf(msg, sizeof(msg), "t=%.6f has no pose within tolerance", frame.time_s);
+      log_rejection("skipped", stats_.frames_skipped_no_pose, msg);
+      continue;
+    }
+    DepthFrameView view;
+    view.depth = frame.depth.data();
+    view.left = frame.has_left ? frame.left.data() : nullptr;
+    view.width = sequence_.camera().width;
+    view.height = sequence_.camera().height;
+
+    FrameReport report;
+    const auto start = std::chrono::steady_clock::now();
+    {
+      os::AllocationScope scope;
+      report = mapper_->integrate(view, pose);
+      const os::AllocationCounts counted = scope.counted();
+      stats_.heap_allocations_after_init += counted.allocations;
+      stats_.heap_frees_after_init += counted.frees;
+    }
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (report.status != FrameStatus::kMapped) {
+      ++stats_.frames_rejected;
+      const bool bad_pose = report.status == FrameStatus::kBadPose;
+      const std::int64_t count =
+          bad_pose ? ++stats_.frames_rejected_bad_pose : ++stats_.frames_rejected_bad_image;
+      log_rejection(bad_pose ? "bad pose" : "bad image", count, sequence_.entry(i).path);
+      continue;
+    }
+    ++stats_.frames_mapped;
+    frame_ms_.push_back(ms);
+    trajectory_.push_back(pose.translation());
+    mapped_frames_.push_back(i);
+    stats_.rays_hit += report.rays_hit;
+    stats_.rays_free += report.rays_free;
+    stats_.pixels_sky += report.pixels_sky;
+    stats_.pixels_missing += report.pixels_missing;
+    stats_.pixels_too_near += report.pixels_too_near;
+    const auto now = std::chrono::steady_clock::now();
+    if (show_progress && (now - last_progress > std::chrono::milliseconds(250) || i + 1 == n)) {
+      last_progress = now;
+      std::fprintf(stderr, "\rzonemap-replay: frame %zu/%zu, %.1f ms, %d zones live   ", i + 1, n,
+                   ms, mapper_->zones().live_zone_count());
+    }
+  }
+  if (show_progress) std::fprintf(stderr, "\n");
+  // The zones still holding a grid join the height profile too.
+  mapper_->zones().for_each_live_zone([this](ZoneView& zone) { height_->fold(zone); });
+  stats_.frame_ms_p50 = hal::percentile(frame_ms_, 0.50);
+  stats_.frame_ms_p99 = hal::percentile(frame_ms_, 0.99);
+  stats_.frame_ms_max =
+      frame_ms_.empty() ? 0.0 : *std::max_element(frame_ms_.begin(), frame_ms_.end());
+  stats_.zones_allocated = mapper_->zones().zones_allocated();
+  stats_.zones_discarded = mapper_->zones().zones_discarded();
+  stats_.height_profile_columns_outside = height_->columns_outside();
+  finished_ = true;
+}
+
+bool ReplayRun::write_outputs(const std::string& out_dir, std::string* error) {
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) {
+    *error = out_dir + ": cannot create (" + ec.message() + ")";
+    return false;
+  }
+  const std::int64_t occupied = hal::write_occupied_ply(out_dir + "/occupied.ply", *mapper_, error);
+  if (occupied < 0) return false;
+  stats_.occupied_cells_final = occupied;
+  if (!height_->write_png(out_dir + "/height.png", config_.cell_size_m, trajectory_, {}, error)) {
+    return false;
+  }
+  return hal::write_stats_json(out_dir + "/stats.json", stats_, error);
+}
+
+}  // namespace zonemap::tools

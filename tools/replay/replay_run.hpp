@@ -1,0 +1,59 @@
+// The replay job: a sequence directory through the host HAL and the mapper, and
+// the run's outputs (stats.json, height.png, occupied.ply). Used by the
+// zonemap-replay tool and by the end-to-end tests.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hal/output/run_outputs.hpp"
+#include "hal/replay/sequence.hpp"
+#include "zonemap/mapper.hpp"
+
+namespace zonemap::tools {
+
+struct ReplayOptions {
+  std::string sequence_dir;
+  std::string config_path;
+  std::string camera_path;  // empty: SEQUENCE/camera.yaml
+  bool progress = false;    // a progress line on stderr
+  bool quiet = false;       // no start-up report or rejection log
+};
+
+class ReplayRun {
+ public:
+  // Loads and checks everything and reserves all memory. False with a message
+  // naming the file (and line) when an input is unusable.
+  bool open(const ReplayOptions& options, std::string* error);
+  // Maps every frame. Per-frame faults are counted in stats(), never fatal.
+  void run();
+  // Writes OUT/stats.json, OUT/height.png and OUT/occupied.ply.
+  bool write_outputs(const std::string& out_dir, std::string* error);
+
+  const hal::RunStats& stats() const { return stats_; }
+  Mapper& mapper() { return *mapper_; }
+  const hal::ReplaySequence& sequence() const { return sequence_; }
+  const MapConfig& config() const { return config_; }
+  const hal::HeightProfile& height_profile() const { return *height_; }
+  // Camera positions of the mapped frames.
+  const std::vector<Eigen::Vector3d>& trajectory() const { return trajectory_; }
+  // Poses used for each mapped frame, in order (for evaluation).
+  const std::vector<std::size_t>& mapped_frames() const { return mapped_frames_; }
+
+ private:
+  void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
+
+  ReplayOptions options_;
+  MapConfig config_;
+  hal::ReplaySequence sequence_;
+  std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<hal::HeightProfile> height_;
+  hal::RunStats stats_;
+  std::vector<double> frame_ms_;
+  std::vector<Eigen::Vector3d> trajectory_;
+  std::vector<std::size_t> mapped_frames_;
+  bool finished_ = false;
+};
+
+}  // namespace zonemap::tools

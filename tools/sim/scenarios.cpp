@@ -1,0 +1,106 @@
+#include "tools/sim/scenarios.hpp"
+
+#include <cmath>
+
+namespace zonemap::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+// Straight flight from a to b at constant speed, nose along the track.
+std::vector<TimedPose> straight(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double speed,
+                                double pitch_down, double rate) {
+  const double length = (b - a).norm();
+  const int frames = std::max(2, static_cast<int>(std::floor(length / speed * rate)) + 1);
+  const double yaw = std::atan2(b.y() - a.y(), b.x() - a.x());
+  std::vector<TimedPose> out;
+  for (int i = 0; i < frames; ++i) {
+    const double f = static_cast<double>(i) / (frames - 1);
+    out.push_back({i / rate, look_pose(a + f * (b - a), yaw, pitch_down)});
+  }
+  return out;
+}
+
+}  // namespace
+
+CameraModel paper_camera(int width) {
+  CameraModel c;
+  c.width = width;
+  c.height = width * 3 / 4;
+  c.fx = 669.0 * width / 640.0;
+  c.fy = c.fx;
+  c.cx = (c.width - 1) / 2.0;
+  c.cy = (c.height - 1) / 2.0;
+  c.baseline_m = 0.30;
+  c.match_sigma_px = 0.25;
+  c.depth_scale = 1000.0;
+  return c;
+}
+
+std::vector<std::string> scenario_names() {
+  return {"bushes", "treeline", "posts-through", "posts-around"};
+}
+
+bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
+                   std::string* error) {
+  if (options.width < 16 || options.width > 2048 || !(options.frame_rate_hz > 0.0)) {
+    *error = "width must be in [16, 2048] and the frame rate > 0";
+    return false;
+  }
+  s->name = name;
+  s->camera = paper_camera(options.width);
+  s->scene = Scene{};
+  const double rate = options.frame_rate_hz;
+  if (name == "bushes") {
+    s->description = "flight 1: a line of bushes between fields and a small aircraft, low flight";
+    s->config = "config/paper-flight1.yaml";
+    for (int i = 0; i < 12; ++i) {
+      const double x = 30.0 + 5.0 * i;
+      s->scene.boxes.push_back({"bush_" + std::to_string(i + 1), Eigen::Vector3d(x, 14.0, 0.0),
+                                Eigen::Vector3d(x + 3.0, 17.0, 2.5)});
+    }
+    s->scene.boxes.push_back({"aircraft_fuselage", Eigen::Vector3d(66.0, -13.0, 0.0),
+                              Eigen::Vector3d(74.0, -11.0, 2.0)});
+    s->scene.boxes.push_back(
+        {"aircraft_wing", Eigen::Vector3d(68.5, -18.0, 1.2), Eigen::Vector3d(70.5, -6.0, 1.6)});
+    s->trajectory = straight({0, 0, 4.0}, {110, 0, 4.0}, 5.0, 12 * kDeg, rate);
+  } else if (name == "treeline") {
+    s->description = "flight 2: a line of trees crossed at altitude";
+    s->config = "config/paper-flight2.yaml";
+    for (int i = 0; i < 9; ++i) {
+      const double y = -28.0 + 7.0 * i;
+      const double height = 10.0 + 2.0 * (i % 4);  // some higher trees
+      s->scene.cylinders.push_back(
+          {"tree_" + std::to_string(i + 1), Eigen::Vector2d(60.0, y), 2.0, 0.0, height});
+    }
+    s->trajectory = straight({0, 0, 20.0}, {100, 0, 20.0}, 5.0, 25 * kDeg, rate);
+  } else if (name == "posts-through" || name == "posts-around") {
+    s->config = "config/paper-flight3.yaml";
+    s->scene.cylinders.push_back({"post_a", Eigen::Vector2d(40.0, -3.5), 0.25, 0.0, 5.0});
+    s->scene.cylinders.push_back({"post_b", Eigen::Vector2d(40.0, 3.5), 0.25, 0.0, 5.0});
+    if (name == "posts-through") {
+      s->description = "flight 3a: two posts 7 m apart, flown through";
+      s->trajectory = straight({0, 0, 3.0}, {55, 0, 3.0}, 4.0, 10 * kDeg, rate);
+    } else {
+      s->description = "flight 3b: a pirouette around two posts, nose to the centre";
+      const Eigen::Vector2d centre(40.0, 0.0);
+      const double radius = 20.0;
+      const double speed = 4.0;
+      const int frames = static_cast<int>(2.0 * kPi * radius / speed * rate);
+      for (int i = 0; i < frames; ++i) {
+        const double a = 2.0 * kPi * i / frames + kPi;  // start west of the posts
+        const Eigen::Vector3d p(centre.x() + radius * std::cos(a),
+                                centre.y() + radius * std::sin(a), 4.0);
+        const double yaw = std::atan2(centre.y() - p.y(), centre.x() - p.x());
+        s->trajectory.push_back({i / rate, look_pose(p, yaw, 10 * kDeg)});
+      }
+    }
+  } else {
+    *error = "unknown scenario '" + name + "' (bushes, treeline, posts-through, posts-around)";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace zonemap::sim

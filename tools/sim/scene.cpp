@@ -1,0 +1,253 @@
+#include "tools/sim/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "hal/replay/png_io.hpp"
+
+namespace zonemap::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Ray p(δ) = o + δ w against an axis-aligned box: entry δ or +inf.
+double hit_box(const Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& w) {
+  double t0 = 0.0;
+  double t1 = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (std::fabs(w[a]) < 1e-12) {
+      if (o[a] < b.min[a] || o[a] > b.max[a]) return std::numeric_limits<double>::infinity();
+      continue;
+    }
+    double ta = (b.min[a] - o[a]) / w[a];
+    double tb = (b.max[a] - o[a]) / w[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 <= t1 && t0 > 0.0 ? t0 : std::numeric_limits<double>::infinity();
+}
+
+double hit_cylinder(const Cylinder& c, const Eigen::Vector3d& o, const Eigen::Vector3d& w) {
+  double best = std::numeric_limits<double>::infinity();
+  // Side wall.
+  const Eigen::Vector2d d(o.x() - c.center.x(), o.y() - c.center.y());
+  const double a = w.x() * w.x() + w.y() * w.y();
+  if (a > 1e-12) {
+    const double b = 2.0 * (d.x() * w.x() + d.y() * w.y());
+    const double cc = d.squaredNorm() - c.radius * c.radius;
+    const double disc = b * b - 4.0 * a * cc;
+    if (disc >= 0.0) {
+      const double t = (-b - std::sqrt(disc)) / (2.0 * a);
+      const double z = o.z() + t * w.z();
+      if (t > 0.0 && z >= c.z_min && z <= c.z_max) best = t;
+    }
+  }
+  // Top and bottom caps.
+  if (std::fabs(w.z()) > 1e-12) {
+    for (double zc : {c.z_max, c.z_min}) {
+      const double t = (zc - o.z()) / w.z();
+      if (t <= 0.0 || t >= best) continue;
+      const Eigen::Vector2d p(o.x() + t * w.x() - c.center.x(), o.y() + t * w.y() - c.center.y());
+      if (p.squaredNorm() <= c.radius * c.radius) best = t;
+    }
+  }
+  return best;
+}
+
+// Stable surface texture from the world position: a value noise in [0, 1).
+double texture(const Eigen::Vector3d& p) {
+  const auto q = (p * 4.0).array().floor().cast<long long>();
+  std::uint64_t h = static_cast<std::uint64_t>(q.x()) * 0x9E3779B97F4A7C15ULL ^
+                    static_cast<std::uint64_t>(q.y()) * 0xC2B2AE3D27D4EB4FULL ^
+                    static_cast<std::uint64_t>(q.z()) * 0x165667B19E3779F9ULL;
+  h ^= h >> 29;
+  h *= 0xBF58476D1CE4E5B9ULL;
+  h ^= h >> 32;
+  return static_cast<double>(h >> 11) / static_cast<double>(1ULL << 53);
+}
+
+}  // namespace
+
+std::uint64_t Rng::next() {
+  std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+double Rng::uniform() {
+  return static_cast<double>(next() >> 11) / static_cast<double>(1ULL << 53);
+}
+
+double Rng::gaussian() {
+  const double u1 = std::max(uniform(), 1e-300);
+  const double u2 = uniform();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+}
+
+Eigen::Isometry3d look_pose(const Eigen::Vector3d& position, double yaw, double pitch_down) {
+  const Eigen::Vector3d forward(std::cos(pitch_down) * std::cos(yaw),
+                                std::cos(pitch_down) * std::sin(yaw), -std::sin(pitch_down));
+  const Eigen::Vector3d right(std::sin(yaw), -std::cos(yaw), 0.0);
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear().col(0) = right;
+  pose.linear().col(1) = down;
+  pose.linear().col(2) = forward;
+  pose.translation() = position;
+  return pose;
+}
+
+double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
+                  double u, double v, Eigen::Vector3d* hit_point) {
+  const Eigen::Vector3d o = pose.translation();
+  const Eigen::Vector3d w = pose.linear() * Eigen::Vector3d((u - camera.cx) / camera.fx,
+                                                            (v - camera.cy) / camera.fy, 1.0);
+  double best = std::numeric_limits<double>::infinity();
+  if (scene.has_ground && w.z() < -1e-12) {
+    const double t = (scene.ground_z - o.z()) / w.z();
+    if (t > 0.0) best = t;
+  }
+  for (const Box& b : scene.boxes) best = std::min(best, hit_box(b, o, w));
+  for (const Cylinder& c : scene.cylinders) best = std::min(best, hit_cylinder(c, o, w));
+  if (!std::isfinite(best)) return -1.0;
+  *hit_point = o + best * w;
+  return best;  // δ is the z-depth because w has unit optical-axis component
+}
+
+void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
+            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left) {
+  const int w = camera.width;
+  const int h = camera.height;
+  // Failed matches come in blocks: choose them first.
+  const int bw = (w + 7) / 8;
+  const int bh = (h + 7) / 8;
+  std::vector<bool> dropped_block(static_cast<std::size_t>(bw * bh));
+  for (std::size_t i = 0; i < dropped_block.size(); ++i) {
+    dropped_block[i] = rng.uniform() < options.hole_block_fraction;
+  }
+  const double noise_factor = options.noise_sigma_px / (camera.baseline_m * camera.fx);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * w + u;
+      Eigen::Vector3d hit;
+      const double d = cast_pixel(scene, camera, pose, u, v, &hit);
+      const double noise = rng.gaussian();
+      const double drop = rng.uniform();
+      const double grain = rng.uniform();
+      if (d < 0.0) {
+        // Sky: bright and flat, no stereo match.
+        left[i] = static_cast<std::uint8_t>(232 + static_cast<int>(grain * 3.0));
+        depth[i] = 0;
+        continue;
+      }
+      left[i] = static_cast<std::uint8_t>(40 + static_cast<int>(texture(hit) * 150.0));
+      const double noisy = d + noise * d * d * noise_factor;  // eq. (1) with the true sigma
+      const bool hole = drop < options.hole_fraction ||
+                        dropped_block[static_cast<std::size_t>((v / 8) * bw + u / 8)];
+      const double value = std::round(noisy * camera.depth_scale);
+      if (hole || d > options.max_range_m || value < 1.0 || value > 65535.0) {
+        depth[i] = 0;
+      } else {
+        depth[i] = static_cast<std::uint16_t>(value);
+      }
+    }
+  }
+}
+
+bool write_objects_yaml(const std::string& path, const Scene& scene, std::string* error) {
+  std::ofstream out(path);
+  if (!out) {
+    *error = path + ": cannot create";
+    return false;
+  }
+  out << "# ground truth obstacles (world frame, metres); ground plane z = " << scene.ground_z
+      << "\nobjects:\n";
+  char line[256];
+  for (const Cylinder& c : scene.cylinders) {
+    std::snprintf(
+        line, sizeof(line),
+        "  - {name: %s, type: cylinder, center: [%.3f, %.3f], radius: %.3f, z: [%.3f, %.3f]}\n",
+        c.name.c_str(), c.center.x(), c.center.y(), c.radius, c.z_min, c.z_max);
+    out << line;
+  }
+  for (const Box& b : scene.boxes) {
+    std::snprintf(line, sizeof(line),
+                  "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f]}\n",
+                  b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z());
+    out << line;
+  }
+  if (scene.boxes.empty() && scene.cylinders.empty()) out << "  []\n";
+  return static_cast<bool>(out);
+}
+
+bool write_sequence(const std::string& dir, const Scene& scene, const CameraModel& camera,
+                    const std::vector<TimedPose>& trajectory, const RenderOptions& options,
+                    std::string* error) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(fs::path(dir) / "depth", ec);
+  fs::create_directories(fs::path(dir) / "left", ec);
+  if (ec) {
+    *error = dir + ": cannot create (" + ec.message() + ")";
+    return false;
+  }
+  {
+    std::ofstream cam(fs::path(dir) / "camera.yaml");
+    char text[512];
+    std::snprintf(text, sizeof(text),
+                  "# generated by zonemap-sim\nwidth: %d\nheight: %d\nfx: %.4f\nfy: %.4f\n"
+                  "cx: %.4f\ncy: %.4f\nbaseline_m: %.4f\nmatch_sigma_px: %.4f\ndepth_scale: %.1f\n",
+                  camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy,
+                  camera.baseline_m, camera.match_sigma_px, camera.depth_scale);
+    cam << text;
+    if (!cam) {
+      *error = dir + "/camera.yaml: cannot write";
+      return false;
+    }
+  }
+  std::ofstream depth_list(fs::path(dir) / "depth.txt");
+  std::ofstream left_list(fs::path(dir) / "left.txt");
+  std::ofstream poses(fs::path(dir) / "groundtruth.txt");
+  depth_list << "# timestamp filename\n";
+  left_list << "# timestamp filename\n";
+  poses << "# timestamp tx ty tz qx qy qz qw (world <- camera optical frame)\n";
+  const std::size_t pixels = static_cast<std::size_t>(camera.width) * camera.height;
+  std::vector<std::uint16_t> depth(pixels);
+  std::vector<std::uint8_t> left(pixels);
+  Rng rng(options.seed);
+  char name[64];
+  char line[256];
+  for (std::size_t f = 0; f < trajectory.size(); ++f) {
+    const TimedPose& p = trajectory[f];
+    render(scene, camera, p.world_T_camera, options, rng, depth.data(), left.data());
+    std::snprintf(name, sizeof(name), "%06zu.png", f);
+    if (!hal::write_png_gray16((fs::path(dir) / "depth" / name).string(), camera.width,
+                               camera.height, depth.data(), error) ||
+        !hal::write_png_gray8((fs::path(dir) / "left" / name).string(), camera.width, camera.height,
+                              left.data(), error)) {
+      return false;
+    }
+    std::snprintf(line, sizeof(line), "%.6f depth/%s\n", p.time_s, name);
+    depth_list << line;
+    std::snprintf(line, sizeof(line), "%.6f left/%s\n", p.time_s, name);
+    left_list << line;
+    const Eigen::Quaterniond q(p.world_T_camera.linear());
+    const Eigen::Vector3d t = p.world_T_camera.translation();
+    std::snprintf(line, sizeof(line), "%.6f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", p.time_s, t.x(),
+                  t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    poses << line;
+  }
+  if (!depth_list || !left_list || !poses) {
+    *error = dir + ": cannot write the frame lists";
+    return false;
+  }
+  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene, error);
+}
+
+}  // namespace zonemap::sim

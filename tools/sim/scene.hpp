@@ -1,0 +1,86 @@
+// Generated flights: a scene of ground plane, boxes and vertical cylinders seen by
+// a stereo camera along a trajectory, rendered to the replay layout of
+// FORMATS.md §1 with stereo noise per eq. (1), holes and a bright flat sky.
+// Deterministic for a given seed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "zonemap/camera.hpp"
+
+namespace zonemap::sim {
+
+struct Box {
+  std::string name;
+  Eigen::Vector3d min;
+  Eigen::Vector3d max;
+};
+
+struct Cylinder {
+  std::string name;
+  Eigen::Vector2d center;
+  double radius = 0.0;
+  double z_min = 0.0;
+  double z_max = 0.0;
+};
+
+struct Scene {
+  bool has_ground = true;
+  double ground_z = 0.0;
+  std::vector<Box> boxes;
+  std::vector<Cylinder> cylinders;
+};
+
+struct TimedPose {
+  double time_s = 0.0;
+  Eigen::Isometry3d world_T_camera = Eigen::Isometry3d::Identity();
+};
+
+struct RenderOptions {
+  double max_range_m = 60.0;          // farther surfaces give no depth (textured, so not sky)
+  double noise_sigma_px = 0.125;      // matching noise actually applied (eq. 1 with this sigma)
+  double hole_fraction = 0.02;        // pixels dropped at random
+  double hole_block_fraction = 0.01;  // 8x8 blocks dropped (failed matches)
+  std::uint64_t seed = 1;
+};
+
+// Deterministic random numbers (splitmix64), the same on every platform.
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next();
+  double uniform();   // [0, 1)
+  double gaussian();  // N(0, 1), Box-Muller
+
+ private:
+  std::uint64_t state_;
+};
+
+// Camera looking along heading `yaw` (radians from +x towards +y), pitched down by
+// `pitch_down` radians, in a z-up world. Optical frame: x right, y down, z forward.
+Eigen::Isometry3d look_pose(const Eigen::Vector3d& position, double yaw, double pitch_down);
+
+// The z-depth along the optical axis of the first surface hit by pixel (u, v), or
+// a negative value when the ray hits nothing (sky). *surface_id tells what was hit
+// (0 ground, 1.. objects) for texturing.
+double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
+                  double u, double v, Eigen::Vector3d* hit_point);
+
+// Renders one frame: depth in units of 1/camera.depth_scale metres (0 = none) and
+// the left intensity image.
+void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
+            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left);
+
+// Writes a whole sequence directory (camera.yaml, depth.txt, depth/, left.txt,
+// left/, groundtruth.txt, objects.yaml).
+bool write_sequence(const std::string& dir, const Scene& scene, const CameraModel& camera,
+                    const std::vector<TimedPose>& trajectory, const RenderOptions& options,
+                    std::string* error);
+
+bool write_objects_yaml(const std::string& path, const Scene& scene, std::string* error);
+
+}  // namespace zonemap::sim

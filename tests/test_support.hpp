@@ -3,6 +3,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "tools/sim/scenarios.hpp"
@@ -32,13 +34,16 @@ inline std::string source_path(const std::string& relative) {
   return std::string(ZONEMAP_SOURCE_DIR) + "/" + relative;
 }
 
-// Writes a generated scenario (small images, low frame rate) and returns its config path.
-inline std::string write_small_scenario(const std::string& name, const std::string& dir, int width,
-                                        double rate_hz, std::size_t max_frames = 0) {
+// Writes a generated scenario with the paper's camera (640x480: its focal length
+// sets Δd of eq. 1, so smaller images would mean a worse sensor) at a low frame
+// rate, plus a copy of its config that maps every `pixel_step`-th pixel to keep
+// tests fast. Returns the config's path, empty on failure.
+inline std::string write_test_scenario(const std::string& name, const std::string& dir,
+                                       double rate_hz, int pixel_step, std::size_t max_frames = 0) {
   sim::Scenario scenario;
   std::string error;
   sim::ScenarioOptions options;
-  options.width = width;
+  options.width = 640;
   options.frame_rate_hz = rate_hz;
   if (!sim::make_scenario(name, options, &scenario, &error)) return "";
   if (max_frames > 0 && scenario.trajectory.size() > max_frames) {
@@ -48,7 +53,17 @@ inline std::string write_small_scenario(const std::string& name, const std::stri
                            sim::RenderOptions{}, &error)) {
     return "";
   }
-  return source_path(scenario.config);
+  std::ifstream in(source_path(scenario.config));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string config = text.str();
+  const std::string key = "pixel_step: 1";
+  const auto at = config.find(key);
+  if (at == std::string::npos) return "";
+  config.replace(at, key.size(), "pixel_step: " + std::to_string(pixel_step));
+  const std::string path = dir + "/test-config.yaml";
+  std::ofstream(path) << config;
+  return path;
 }
 
 }  // namespace zonemap::testing

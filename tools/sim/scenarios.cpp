@@ -68,13 +68,13 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
   } else if (name == "treeline") {
     s->description = "flight 2: a line of trees crossed at altitude";
     s->config = "config/paper-flight2.yaml";
-    for (int i = 0; i < 9; ++i) {
-      const double y = -28.0 + 7.0 * i;
-      const double height = 10.0 + 2.0 * (i % 4);  // some higher trees
+    for (int i = 0; i < 6; ++i) {
+      const double y = -17.5 + 7.0 * i;
+      const double height = 8.0 + 2.0 * (i % 4);  // some higher trees
       s->scene.cylinders.push_back(
           {"tree_" + std::to_string(i + 1), Eigen::Vector2d(60.0, y), 2.0, 0.0, height});
     }
-    s->trajectory = straight({0, 0, 20.0}, {100, 0, 20.0}, 5.0, 25 * kDeg, rate);
+    s->trajectory = straight({0, 0, 18.0}, {100, 0, 18.0}, 5.0, 20 * kDeg, rate);
   } else if (name == "posts-through" || name == "posts-around") {
     s->config = "config/paper-flight3.yaml";
     s->scene.cylinders.push_back({"post_a", Eigen::Vector2d(40.0, -3.5), 0.25, 0.0, 5.0});

@@ -8,6 +8,8 @@
 #include <fstream>
 #include <memory>
 
+#include "hal/replay/png_io.hpp"
+#include "hal/replay/yaml_config.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -209,6 +211,120 @@ TEST(ReplayGenerated, HeightProfileShowsBothPostsWhereTheyAre) {
   EXPECT_LT(top_height(40.0, 0.0), 1.0);
   EXPECT_LT(top_height(37.0, -3.5), 1.0);
   EXPECT_LT(top_height(43.0, 3.5), 1.0);
+}
+
+}  // namespace
+}  // namespace zonemap
+
+namespace zonemap {
+namespace {
+
+// A TUM RGB-D sequence replays unchanged: no camera.yaml in the directory (given
+// with --camera), depth PNGs at 5000 per metre (set by the config), epoch
+// timestamps, poses at another rate than the frames, and extra files around.
+TEST(ReplayTumLayout, MapsLikeTheSameFlightInMillimetres) {
+  testing::TempDir dir;
+  const std::string mm = dir / "mm";
+  const std::string config = testing::write_test_scenario("posts-through", mm, 5.0, 4, 40);
+  ASSERT_FALSE(config.empty());
+
+  // Build the TUM copy.
+  const std::string tum = dir / "tum";
+  std::filesystem::create_directories(tum + "/depth");
+  const double epoch = 1305031102.0;
+  hal::ReplaySequence source;
+  MapConfig map_config;
+  std::string error;
+  ASSERT_TRUE(hal::load_map_config(config, &map_config, &error)) << error;
+  ASSERT_TRUE(source.open(mm, "", map_config, &error)) << error;
+  const CameraModel camera = source.camera();
+  std::ofstream list(tum + "/depth.txt");
+  list << "# depth maps\n# file: 'rgbd_dataset_zonemap_posts.bag'\n# timestamp filename\n";
+  hal::ReplayFrame frame = source.make_frame();
+  for (std::size_t i = 0; i < source.frame_count(); ++i) {
+    ASSERT_TRUE(source.read(i, &frame, &error)) << error;
+    // 16-bit PNG at 5000 per metre ends at 13.1 m: drop farther depths from both copies.
+    for (auto& v : frame.depth) v = v > 13107 ? 0 : v;
+    ASSERT_TRUE(hal::write_png_gray16(source.entry(i).path, camera.width, camera.height,
+                                      frame.depth.data(), &error));
+    for (auto& v : frame.depth) v = static_cast<std::uint16_t>(v * 5);
+    char name[64];
+    std::snprintf(name, sizeof(name), "depth/%.6f.png", epoch + frame.time_s);
+    ASSERT_TRUE(hal::write_png_gray16(tum + "/" + name, camera.width, camera.height,
+                                      frame.depth.data(), &error));
+    char line[128];
+    std::snprintf(line, sizeof(line), "%.6f %s\n", epoch + frame.time_s, name);
+    list << line;
+  }
+  list.close();
+  // Poses at 4x the frame rate, offset by 7 ms: every frame needs interpolation.
+  std::ofstream gt(tum + "/groundtruth.txt");
+  gt << "# ground truth trajectory\n# timestamp tx ty tz qx qy qz qw\n";
+  const auto& samples = source.poses().samples();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    for (int k = 0; k < 4; ++k) {
+      // The last pose comes 3 ms before the last frame (within tolerance).
+      const double t =
+          i + 1 < samples.size() ? samples[i].time_s + 0.007 + k * 0.05 : samples[i].time_s - 0.003;
+      if (i + 1 == samples.size() && k > 0) break;
+      Eigen::Isometry3d pose;
+      ASSERT_NE(source.poses().lookup(t, &pose), PoseLookup::kNoPose);
+      const Eigen::Quaterniond q(pose.linear());
+      char line[200];
+      std::snprintf(line, sizeof(line), "%.4f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", epoch + t,
+                    pose.translation().x(), pose.translation().y(), pose.translation().z(), q.x(),
+                    q.y(), q.z(), q.w());
+      gt << line;
+    }
+  }
+  gt.close();
+  std::ofstream(tum + "/rgb.txt") << "# color images\n";
+  std::ofstream(tum + "/accelerometer.txt") << "# accelerometer data\n";
+  // The camera file lives elsewhere, at millimetre scale: the config says 5000.
+  std::filesystem::copy_file(mm + "/camera.yaml", dir / "camera-elsewhere.yaml");
+  std::string tum_config = config + ".tum.yaml";
+  std::ifstream in(config);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::ofstream(tum_config) << text.str() << "camera:\n  depth_scale: 5000.0\n";
+
+  auto map = [&](const std::string& seq, const std::string& camera_path, const std::string& cfg,
+                 tools::ReplayRun* run) {
+    tools::ReplayOptions options;
+    options.sequence_dir = seq;
+    options.camera_path = camera_path;
+    options.config_path = cfg;
+    options.quiet = true;
+    ASSERT_TRUE(run->open(options, &error)) << error;
+    run->run();
+  };
+  tools::ReplayRun reference;
+  tools::ReplayRun replayed;
+  map(mm, "", config, &reference);
+  map(tum, dir / "camera-elsewhere.yaml", tum_config, &replayed);
+  ASSERT_EQ(replayed.stats().frames_mapped, reference.stats().frames_mapped);
+  EXPECT_EQ(replayed.stats().frames_skipped_no_pose, 0);
+  EXPECT_EQ(replayed.stats().frames_rejected, 0);
+
+  // Same cells occupied (poses differ only by interpolation rounding).
+  std::int64_t both = 0, only_one = 0;
+  reference.mapper().zones().for_each_live_zone([&](ZoneView& zone) {
+    for (std::size_t i = 0;
+         i < static_cast<std::size_t>(zone.dims[0]) * zone.dims[1] * zone.dims[2]; ++i) {
+      const int x = static_cast<int>(i % zone.dims[0]);
+      const int y = static_cast<int>((i / zone.dims[0]) % zone.dims[1]);
+      const int z = static_cast<int>(i / (static_cast<std::size_t>(zone.dims[0]) * zone.dims[1]));
+      const bool a = zone.cells[i] > reference.mapper().occupied_threshold();
+      FusedCell other = 0;
+      const bool held = replayed.mapper().zones().value_at(
+          {zone.origin.x + x, zone.origin.y + y, zone.origin.z + z}, &other);
+      const bool b = held && other > replayed.mapper().occupied_threshold();
+      if (a && b) ++both;
+      if (a != b) ++only_one;
+    }
+  });
+  EXPECT_GT(both, 1000);
+  EXPECT_LT(static_cast<double>(only_one), 0.02 * static_cast<double>(both));
 }
 
 }  // namespace

@@ -185,5 +185,83 @@ TEST(Mapper, RejectsNonFinitePoseAndLeavesTheMapAlone) {
             FrameStatus::kBadFrame);
 }
 
+CameraModel tiny_camera() {
+  CameraModel camera;
+  camera.width = 16;
+  camera.height = 12;
+  camera.fx = camera.fy = 16.0;
+  camera.cx = 7.5;
+  camera.cy = 5.5;
+  camera.baseline_m = 0.3;
+  camera.match_sigma_px = 0.25;
+  camera.depth_scale = 1000.0;
+  return camera;
+}
+
+// Camera at the world origin looking along +x (optical z = world x).
+Eigen::Isometry3d looking_along_x() {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  return pose;
+}
+
+TEST(Mapper, SkyFilterTurnsBrightFlatMissingDepthIntoFreeSpace) {
+  MapConfig config = small_config();
+  config.zone_cells = {20, 20, 20};
+  config.blur_radius = 0;
+  const CameraModel camera = tiny_camera();
+  Mapper mapper(config, camera);
+  std::vector<std::uint16_t> depth(16 * 12, 0);  // no depth anywhere
+  std::vector<std::uint8_t> left(16 * 12);
+  for (int v = 0; v < 12; ++v)
+    for (int u = 0; u < 16; ++u) {
+      // Upper half: bright and flat (sky). Lower half: bright but textured.
+      left[static_cast<std::size_t>(v * 16 + u)] =
+          static_cast<std::uint8_t>(v < 6 ? 235 : ((u + v) % 2 ? 250 : 205));
+    }
+  const FrameReport report =
+      mapper.integrate({depth.data(), left.data(), 16, 12}, looking_along_x());
+  EXPECT_EQ(report.status, FrameStatus::kMapped);
+  // Rows 0-4 are flat in their whole 3x3 neighbourhood; row 5 touches the texture.
+  EXPECT_EQ(report.pixels_sky, 5 * 16);
+  EXPECT_EQ(report.rays_free, 5 * 16);
+  EXPECT_EQ(report.rays_hit, 0);
+  EXPECT_EQ(report.pixels_missing, 7 * 16);
+  FusedCell v = 0;
+  // Straight ahead and up: free beyond d_min (1 m) up to d_max (8 m).
+  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({5.0, 0.2, 1.5}), &v));
+  EXPECT_LT(v, 0);
+  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({5.0, 0.2, -1.5}), &v));
+  EXPECT_EQ(v, 0) << "missing depth below the horizon is ignored";
+  // Without the left image, nothing is sky.
+  Mapper blind(config, camera);
+  EXPECT_EQ(blind.integrate({depth.data(), nullptr, 16, 12}, looking_along_x()).pixels_sky, 0);
+}
+
+TEST(Mapper, DepthBeyondDmaxGivesFreeSpaceUpToDmaxOnly) {
+  MapConfig config = small_config();
+  config.zone_cells = {40, 20, 20};
+  config.blur_radius = 0;
+  config.d_max_m = 8.0;
+  Mapper mapper(config, tiny_camera());
+  std::vector<std::uint16_t> depth(16 * 12, 15000);  // 15 m, beyond d_max
+  const FrameReport report = mapper.integrate({depth.data(), nullptr, 16, 12}, looking_along_x());
+  EXPECT_EQ(report.rays_free, 16 * 12);
+  EXPECT_EQ(report.rays_hit, 0);
+  FusedCell v = 0;
+  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({6.5, 0.1, 0.1}), &v));
+  EXPECT_EQ(v, -kCellScale);
+  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({9.5, 0.1, 0.1}), &v));
+  EXPECT_EQ(v, 0) << "nothing past d_max";
+  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({15.2, 0.1, 0.1}), &v));
+  EXPECT_EQ(v, 0) << "no obstacle at the far depth";
+
+  // Below d_min: ignored entirely.
+  std::fill(depth.begin(), depth.end(), std::uint16_t{500});
+  const FrameReport near = mapper.integrate({depth.data(), nullptr, 16, 12}, looking_along_x());
+  EXPECT_EQ(near.pixels_too_near, 16 * 12);
+  EXPECT_EQ(near.cells_visited, 0);
+}
+
 }  // namespace
 }  // namespace zonemap

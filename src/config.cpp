@@ -39,6 +39,24 @@ std::string validate(const MapConfig& c) {
     why << "pose.max_gap_s must be > 0 and pose.tolerance_s >= 0";
   } else if (c.depth_scale_override < 0.0 || !std::isfinite(c.depth_scale_override)) {
     why << "camera.depth_scale must be > 0";
+  } else if (!(c.features.occupied_threshold_units > 0.0) ||
+             c.features.occupied_threshold_units >= c.saturation_units) {
+    why << "features.occupied_threshold must be in (0, saturation)";
+  } else if (c.features.min_cells < 1 || c.features.capacity < 1 ||
+             c.features.capacity > 1'000'000 || c.features.quadtree_groups < 1 ||
+             c.features.quadtree_groups > 16'000'000) {
+    why << "features.min_cells >= 1, features.capacity in [1, 1000000], "
+           "features.quadtree_groups in [1, 16000000]";
+  } else if (c.features.extract_every_frames < 1) {
+    why << "features.extract_every_frames must be >= 1";
+  } else if (!(c.features.reintegration_units > c.features.occupied_threshold_units) ||
+             c.features.reintegration_units > c.saturation_units) {
+    why << "features.reintegration must be in (features.occupied_threshold, saturation]";
+  } else if (c.features.merge_gap_cells < 0 || c.features.merge_gap_cells > 8) {
+    why << "features.merge_gap_cells must be in [0, 8]";
+  } else if (!(c.features.ground_thickness_m >= 0.0) || !(c.features.ground_window_m >= 0.0) ||
+             !(c.features.ground_min_coverage >= 0.0) || c.features.ground_min_coverage > 1.0) {
+    why << "ground.thickness_m and ground.window_m must be >= 0, ground.min_coverage in [0, 1]";
   }
   return why.str();
 }

@@ -18,6 +18,12 @@ ZoneMap::ZoneMap(const MapConfig& config)
   }
 }
 
+bool ZoneMap::add_observer(ZoneObserver* observer) {
+  if (observer_count_ >= kMaxObservers) return false;
+  observers_[static_cast<std::size_t>(observer_count_++)] = observer;
+  return true;
+}
+
 CellIndex ZoneMap::environment_origin(const CellIndex& camera_cell) const {
   return CellIndex{camera_cell.x - dims_[0] / 2, camera_cell.y - dims_[1] / 2,
                    camera_cell.z - dims_[2] / 2};
@@ -64,7 +70,7 @@ int ZoneMap::move_environment(const CellIndex& origin) {
   // Discard first so that their buffers can serve the new zones.
   for (auto& slot : slots_) {
     if (slot.live && !wanted(slot.key)) {
-      if (observer_ != nullptr) observer_->on_zone_discarding(view_of(slot));
+      for (int o = 0; o < observer_count_; ++o) observers_[o]->on_zone_discarding(view_of(slot));
       slot.live = false;
       ++zones_discarded_;
     }
@@ -90,10 +96,8 @@ int ZoneMap::move_environment(const CellIndex& origin) {
         std::fill_n(free_slot->cells, cells_per_zone_, FusedCell{0});
         ++zones_allocated_;
         ++allocated;
-        if (observer_ != nullptr) {
-          ZoneView view = view_of(*free_slot);
-          observer_->on_zone_allocated(view);
-        }
+        ZoneView view = view_of(*free_slot);
+        for (int o = 0; o < observer_count_; ++o) observers_[o]->on_zone_allocated(view);
       }
     }
   }

@@ -45,7 +45,7 @@ TEST(ZoneMap, KeysUseFloorDivisionForNegativeCells) {
 TEST(ZoneMap, StraightFlightAcrossBoundariesAllocatesAndDiscards) {
   ZoneMap zones(small_config());
   RecordingObserver observer;
-  zones.set_observer(&observer);
+  zones.add_observer(&observer);
   std::set<const FusedCell*> buffers;
   // Fly along +x from cell 2 to cell 47 at y = 5, z = 2 (zone centre in y and z).
   for (int x = 2; x <= 47; ++x) {

@@ -126,6 +126,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"static_memory_bytes\": " << s.static_memory_bytes << ",\n"
       << "  \"zones_allocated\": " << s.zones_allocated << ",\n"
       << "  \"features\": " << s.features << ",\n"
+      << "  \"cell_size_m\": " << s.cell_size_m << ",\n"
       << "  \"heap_frees_after_init\": " << s.heap_frees_after_init << ",\n"
       << "  \"zones_discarded\": " << s.zones_discarded << ",\n"
       << "  \"frames_rejected_bad_pose\": " << s.frames_rejected_bad_pose << ",\n"
@@ -140,11 +141,46 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"pixels_too_near\": " << s.pixels_too_near << ",\n"
       << "  \"occupied_cells_final\": " << s.occupied_cells_final << ",\n"
       << "  \"height_profile_columns_outside\": " << s.height_profile_columns_outside << ",\n"
+      << "  \"obstacle_boxes\": " << s.obstacle_boxes << ",\n"
+      << "  \"ground_boxes\": " << s.ground_boxes << ",\n"
+      << "  \"feature_counters\": {\"extractions\": " << s.feature_counters.extractions
+      << ", \"added\": " << s.feature_counters.features_added
+      << ", \"updated\": " << s.feature_counters.features_updated
+      << ", \"removed\": " << s.feature_counters.features_removed
+      << ", \"evicted\": " << s.feature_counters.features_evicted
+      << ", \"dropped\": " << s.feature_counters.features_dropped
+      << ", \"objects_too_small\": " << s.feature_counters.objects_too_small
+      << ", \"shapes_truncated\": " << s.feature_counters.shapes_truncated
+      << ", \"cells_reintegrated\": " << s.feature_counters.cells_reintegrated << "},\n"
+      << "  \"extract_ms\": {\"p50\": " << s.extract_ms_p50 << ", \"max\": " << s.extract_ms_max
+      << "},\n"
       << "  \"memory_bytes\": {\"zone_pool\": " << s.zone_pool_bytes
-      << ", \"local_grid\": " << s.local_grid_bytes << "}\n"
+      << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
+      << "}\n"
       << "}\n";
   out.close();
   if (!out) {
+    *error = path + ": write failed";
+    return false;
+  }
+  return true;
+}
+
+bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::size_t count,
+                     std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    *error = path + ": cannot create";
+    return false;
+  }
+  std::fprintf(f, "id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells\n");
+  for (std::size_t i = 0; i < count; ++i) {
+    const ObstacleBox& b = boxes[i];
+    std::fprintf(f, "%u,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d\n", b.id,
+                 b.kind == FeatureKind::kObstacle ? "obstacle" : "ground", b.min.x(), b.min.y(),
+                 b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells);
+  }
+  if (std::fclose(f) != 0) {
     *error = path + ": write failed";
     return false;
   }

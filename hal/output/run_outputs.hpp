@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"
 #include "zonemap/zone_map.hpp"
 
@@ -29,6 +30,7 @@ struct RunStats {
   std::int64_t zones_discarded = 0;
   std::int64_t features = 0;
   // Extensions (FORMATS.md allows new keys).
+  double cell_size_m = 0.0;
   std::int64_t frames_rejected_bad_pose = 0;
   std::int64_t frames_rejected_bad_image = 0;
   std::int64_t frames_rejected_time_order = 0;
@@ -43,7 +45,17 @@ struct RunStats {
   std::int64_t height_profile_columns_outside = 0;
   std::uint64_t local_grid_bytes = 0;
   std::uint64_t zone_pool_bytes = 0;
+  std::uint64_t feature_map_bytes = 0;
+  std::int64_t obstacle_boxes = 0;  // merged, as in boxes.csv
+  std::int64_t ground_boxes = 0;
+  FeatureCounters feature_counters;
+  double extract_ms_p50 = 0.0;
+  double extract_ms_max = 0.0;
 };
+
+// boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells
+bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::size_t count,
+                     std::string* error);
 
 // Percentile by nearest rank over an unsorted sample (copied and sorted).
 double percentile(std::vector<double> values, double fraction);

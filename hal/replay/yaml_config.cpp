@@ -94,7 +94,19 @@ bool load_map_config(const std::string& path, MapConfig* config, std::string* er
                                                {"max_gradient", into(&c.sky.max_gradient)}})},
          {"pose", section("pose", {{"max_gap_s", into(&c.pose_max_gap_s)},
                                    {"tolerance_s", into(&c.pose_tolerance_s)}})},
-         {"camera", section("camera", {{"depth_scale", into(&c.depth_scale_override)}})}});
+         {"camera", section("camera", {{"depth_scale", into(&c.depth_scale_override)}})},
+         {"features",
+          section("features", {{"occupied_threshold", into(&c.features.occupied_threshold_units)},
+                               {"min_cells", into(&c.features.min_cells)},
+                               {"capacity", into(&c.features.capacity)},
+                               {"quadtree_groups", into(&c.features.quadtree_groups)},
+                               {"extract_every_frames", into(&c.features.extract_every_frames)},
+                               {"reintegration", into(&c.features.reintegration_units)},
+                               {"merge_gap_cells", into(&c.features.merge_gap_cells)}})},
+         {"ground", section("ground", {{"enabled", into(&c.features.ground_enabled)},
+                                       {"thickness_m", into(&c.features.ground_thickness_m)},
+                                       {"window_m", into(&c.features.ground_window_m)},
+                                       {"min_coverage", into(&c.features.ground_min_coverage)}})}});
   } catch (const ParseError& e) {
     *error = e.message;
     return false;

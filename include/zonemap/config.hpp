@@ -23,6 +23,26 @@ struct SkyFilterConfig {
   int max_gradient = 8;     // largest 3x3 neighbour difference of a low-texture region
 };
 
+// The feature map (paper §IV) and the ground model (past the paper).
+struct FeatureConfig {
+  double occupied_threshold_units = 1.5;  // fused value above which a cell belongs to an object
+  int min_cells = 3;                      // smaller objects are noise (counted)
+  int capacity = 4096;                    // features held in the store
+  int quadtree_groups = 65536;            // footprint quadtree nodes, in groups of four
+  int extract_every_frames = 10;          // periodic extraction of the zones holding a grid
+  double reintegration_units = 4.0;       // value written into a re-allocated zone's object cells
+  int merge_gap_cells = 1;  // per-zone features this close across zones are one object
+  // Ground: a column's terrain height is the lowest occupied cell, taken as the
+  // minimum over a window, where at least min_coverage of the window's observed
+  // columns (any cell known free or occupied) have an occupied cell: a surface, not
+  // a thing standing in free space. Occupied cells up to thickness_m above it are
+  // ground.
+  bool ground_enabled = true;
+  double ground_thickness_m = 2.0;  // long-range stereo smears the ground upwards (eq. 5)
+  double ground_window_m = 6.0;
+  double ground_min_coverage = 0.5;
+};
+
 struct MapConfig {
   double cell_size_m = 1.0;
   std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
@@ -37,6 +57,7 @@ struct MapConfig {
   double pose_max_gap_s = 0.1;        // largest gap between two poses interpolated over
   double pose_tolerance_s = 0.02;     // nearest pose accepted at the ends of a trajectory
   double depth_scale_override = 0.0;  // > 0 replaces camera.yaml's depth_scale (TUM: 5000)
+  FeatureConfig features;
 };
 
 // Returns an empty string when the configuration is usable, else what is wrong.

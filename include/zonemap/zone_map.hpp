@@ -54,7 +54,10 @@ class ZoneMap {
   // must have passed validate().
   explicit ZoneMap(const MapConfig& config);
 
-  void set_observer(ZoneObserver* observer) { observer_ = observer; }
+  // Observers are told in the order added (e.g. the feature map, then outputs).
+  // Returns false when kMaxObservers are already registered.
+  bool add_observer(ZoneObserver* observer);
+  static constexpr int kMaxObservers = 4;
 
   // The environment cube (zone-sized) centred on `camera_cell`: its minimum corner.
   CellIndex environment_origin(const CellIndex& camera_cell) const;
@@ -106,7 +109,8 @@ class ZoneMap {
   FusedCell limit_;
   std::unique_ptr<FusedCell[]> pool_;
   std::array<Slot, kZonesHeld> slots_{};
-  ZoneObserver* observer_ = nullptr;
+  std::array<ZoneObserver*, kMaxObservers> observers_{};
+  int observer_count_ = 0;
   std::int64_t zones_allocated_ = 0;
   std::int64_t zones_discarded_ = 0;
 };

@@ -44,8 +44,11 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   }
   stats_ = hal::RunStats{};
   stats_.poses_rejected = sequence_.poses_rejected();
+  stats_.cell_size_m = config_.cell_size_m;
 
   mapper_ = std::make_unique<Mapper>(config_, sequence_.camera());
+  features_ = std::make_unique<FeatureMap>(config_, sequence_.camera().world_z_up);
+  mapper_->zones().add_observer(features_.get());
 
   // The height profile covers every zone the flight can touch: the trajectory's
   // extent plus one and a half zones on each side.
@@ -61,36 +64,39 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   height_ = std::make_unique<hal::HeightProfile>(
       lo_cell.x - dims[0] * 3 / 2, lo_cell.y - dims[1] * 3 / 2, hi_cell.x + dims[0] * 3 / 2,
       hi_cell.y + dims[1] * 3 / 2, mapper_->occupied_threshold(), sequence_.camera().world_z_up);
-  mapper_->zones().set_observer(height_.get());
+  mapper_->zones().add_observer(height_.get());
 
   const std::size_t n = sequence_.frame_count();
   frame_ms_.reserve(n);
+  extract_ms_.reserve(n / static_cast<std::size_t>(config_.features.extract_every_frames) + 2);
   trajectory_.reserve(n);
   mapped_frames_.reserve(n);
   stats_.zone_pool_bytes = mapper_->zones().reserved_bytes();
   stats_.local_grid_bytes = mapper_->local_grid().reserved_bytes();
-  stats_.static_memory_bytes = mapper_->reserved_bytes();
+  stats_.feature_map_bytes = features_->reserved_bytes();
+  stats_.static_memory_bytes = mapper_->reserved_bytes() + features_->reserved_bytes();
   if (!options.quiet) {
     const auto& cam = sequence_.camera();
     std::fprintf(stderr,
                  "zonemap-replay: %zu frames %dx%d, cells %.3f m, zones %dx%dx%d, d %.2f..%.2f m\n"
                  "zonemap-replay: reserved %.1f MiB: zone pool %.1f MiB (8 x %zu cells x %zu B), "
-                 "local grid %.1f MiB\n",
+                 "local grid %.1f MiB, feature map %.1f MiB (%d features)\n",
                  n, cam.width, cam.height, config_.cell_size_m, dims[0], dims[1], dims[2],
                  config_.d_min_m, config_.d_max_m, mebibytes(stats_.static_memory_bytes),
                  mebibytes(stats_.zone_pool_bytes), zone_cell_count(config_), sizeof(FusedCell),
-                 mebibytes(stats_.local_grid_bytes));
+                 mebibytes(stats_.local_grid_bytes), mebibytes(stats_.feature_map_bytes),
+                 config_.features.capacity);
   }
   return true;
 }
 
-void ReplayRun::run() {
+void ReplayRun::run_frames(std::size_t first, std::size_t last) {
   hal::ReplayFrame frame = sequence_.make_frame();
   std::string why;
-  const std::size_t n = sequence_.frame_count();
+  const std::size_t n = std::min(last, sequence_.frame_count());
   const bool show_progress = options_.progress && isatty(STDERR_FILENO);
   auto last_progress = std::chrono::steady_clock::now();
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = first; i < n; ++i) {
     ++stats_.frames_in;
     // Decoding files is the host HAL's work, outside the mapping path's count.
     if (!sequence_.read(i, &frame, &why)) {
@@ -125,6 +131,7 @@ void ReplayRun::run() {
     const auto start = std::chrono::steady_clock::now();
     {
       os::AllocationScope scope;
+      features_->set_context(frame.time_s, pose.translation());
       report = mapper_->integrate(view, pose);
       const os::AllocationCounts counted = scope.counted();
       stats_.heap_allocations_after_init += counted.allocations;
@@ -142,6 +149,7 @@ void ReplayRun::run() {
     }
     ++stats_.frames_mapped;
     frame_ms_.push_back(ms);
+    if (stats_.frames_mapped % config_.features.extract_every_frames == 0) extract_live_zones();
     trajectory_.push_back(pose.translation());
     mapped_frames_.push_back(i);
     stats_.rays_hit += report.rays_hit;
@@ -157,6 +165,10 @@ void ReplayRun::run() {
     }
   }
   if (show_progress) std::fprintf(stderr, "\n");
+}
+
+void ReplayRun::finish() {
+  extract_live_zones();
   // The zones still holding a grid join the height profile too.
   mapper_->zones().for_each_live_zone([this](ZoneView& zone) { height_->fold(zone); });
   stats_.frame_ms_p50 = hal::percentile(frame_ms_, 0.50);
@@ -166,7 +178,31 @@ void ReplayRun::run() {
   stats_.zones_allocated = mapper_->zones().zones_allocated();
   stats_.zones_discarded = mapper_->zones().zones_discarded();
   stats_.height_profile_columns_outside = height_->columns_outside();
+  stats_.extract_ms_p50 = hal::percentile(extract_ms_, 0.50);
+  stats_.extract_ms_max =
+      extract_ms_.empty() ? 0.0 : *std::max_element(extract_ms_.begin(), extract_ms_.end());
+  stats_.features = static_cast<std::int64_t>(features_->count());
+  stats_.feature_counters = features_->counters();
   finished_ = true;
+}
+
+void ReplayRun::extract_live_zones() {
+  const auto start = std::chrono::steady_clock::now();
+  {
+    os::AllocationScope scope;
+    mapper_->zones().for_each_live_zone([this](ZoneView& zone) { features_->extract(zone); });
+    const os::AllocationCounts counted = scope.counted();
+    stats_.heap_allocations_after_init += counted.allocations;
+    stats_.heap_frees_after_init += counted.frees;
+  }
+  extract_ms_.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+}
+
+std::vector<ObstacleBox> ReplayRun::boxes(bool include_ground) {
+  std::vector<ObstacleBox> out(features_->capacity());
+  out.resize(features_->merged(out.data(), out.size(), include_ground));
+  return out;
 }
 
 bool ReplayRun::write_outputs(const std::string& out_dir, std::string* error) {
@@ -179,7 +215,21 @@ bool ReplayRun::write_outputs(const std::string& out_dir, std::string* error) {
   const std::int64_t occupied = hal::write_occupied_ply(out_dir + "/occupied.ply", *mapper_, error);
   if (occupied < 0) return false;
   stats_.occupied_cells_final = occupied;
-  if (!height_->write_png(out_dir + "/height.png", config_.cell_size_m, trajectory_, {}, error)) {
+  const std::vector<ObstacleBox> all = boxes(true);
+  if (!hal::write_boxes_csv(out_dir + "/boxes.csv", all.data(), all.size(), error)) return false;
+  std::vector<Eigen::Vector4d> outlines;
+  stats_.obstacle_boxes = 0;
+  stats_.ground_boxes = 0;
+  for (const ObstacleBox& b : all) {
+    if (b.kind == FeatureKind::kGround) {
+      ++stats_.ground_boxes;
+      continue;
+    }
+    ++stats_.obstacle_boxes;
+    outlines.emplace_back(b.min.x(), b.min.y(), b.max.x(), b.max.y());
+  }
+  if (!height_->write_png(out_dir + "/height.png", config_.cell_size_m, trajectory_, outlines,
+                          error)) {
     return false;
   }
   return hal::write_stats_json(out_dir + "/stats.json", stats_, error);

@@ -27,7 +27,17 @@ class ReplayRun {
   // naming the file (and line) when an input is unusable.
   bool open(const ReplayOptions& options, std::string* error);
   // Maps every frame. Per-frame faults are counted in stats(), never fatal.
-  void run();
+  void run() {
+    run_frames(0, sequence_.frame_count());
+    finish();
+  }
+  // Maps frames [first, last) (for tests that look at the map part-way), then
+  // finish() extracts the live zones and completes the statistics.
+  void run_frames(std::size_t first, std::size_t last);
+  void finish();
+  // Extracts the features of every zone holding a grid now (also done every
+  // features.extract_every_frames frames and at finish()).
+  void extract_live_zones();
   // Writes OUT/stats.json, OUT/height.png and OUT/occupied.ply.
   bool write_outputs(const std::string& out_dir, std::string* error);
 
@@ -36,6 +46,9 @@ class ReplayRun {
   const hal::ReplaySequence& sequence() const { return sequence_; }
   const MapConfig& config() const { return config_; }
   const hal::HeightProfile& height_profile() const { return *height_; }
+  FeatureMap& features() { return *features_; }
+  // The merged boxes of boxes.csv (obstacles, then ground when asked).
+  std::vector<ObstacleBox> boxes(bool include_ground);
   // Camera positions of the mapped frames.
   const std::vector<Eigen::Vector3d>& trajectory() const { return trajectory_; }
   // Poses used for each mapped frame, in order (for evaluation).
@@ -49,6 +62,8 @@ class ReplayRun {
   hal::ReplaySequence sequence_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<hal::HeightProfile> height_;
+  std::unique_ptr<FeatureMap> features_;
+  std::vector<double> extract_ms_;
   hal::RunStats stats_;
   std::vector<double> frame_ms_;
   std::vector<Eigen::Vector3d> trajectory_;

@@ -39,7 +39,7 @@ CameraModel paper_camera(int width) {
 }
 
 std::vector<std::string> scenario_names() {
-  return {"bushes", "treeline", "posts-through", "posts-around"};
+  return {"bushes", "treeline", "posts-through", "posts-around", "out-and-back"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -96,8 +96,24 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
         s->trajectory.push_back({i / rate, look_pose(p, yaw, 10 * kDeg)});
       }
     }
+  } else if (name == "out-and-back") {
+    s->description = "a 200 m route flown out and back: zones are discarded and allocated again";
+    s->config = "config/paper-flight3.yaml";
+    s->scene.cylinders.push_back({"post_a", Eigen::Vector2d(40.0, -3.5), 0.25, 0.0, 5.0});
+    s->scene.cylinders.push_back({"post_b", Eigen::Vector2d(40.0, 3.5), 0.25, 0.0, 5.0});
+    s->scene.boxes.push_back(
+        {"hut_1", Eigen::Vector3d(110.0, 6.0, 0.0), Eigen::Vector3d(114.0, 10.0, 3.0)});
+    s->scene.boxes.push_back(
+        {"hut_2", Eigen::Vector3d(170.0, -10.0, 0.0), Eigen::Vector3d(173.0, -6.0, 3.0)});
+    s->trajectory = straight({0, 0, 3.0}, {200, 0, 3.0}, 8.0, 10 * kDeg, rate);
+    const double t_turn = s->trajectory.back().time_s + 1.0 / rate;
+    for (TimedPose p : straight({200, 0, 3.0}, {0, 0, 3.0}, 8.0, 10 * kDeg, rate)) {
+      p.time_s += t_turn;
+      s->trajectory.push_back(p);
+    }
   } else {
-    *error = "unknown scenario '" + name + "' (bushes, treeline, posts-through, posts-around)";
+    *error = "unknown scenario '" + name +
+             "' (bushes, treeline, posts-through, posts-around, out-and-back)";
     return false;
   }
   return true;

@@ -1,0 +1,423 @@
+#include "zonemap/feature_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace zonemap {
+namespace {
+
+constexpr std::int16_t kNoHeight = -1;
+
+std::int64_t overlap_volume(const CellIndex& a0, const CellIndex& a1, const CellIndex& b0,
+                            const CellIndex& b1) {
+  const std::int64_t dx = std::min(a1.x, b1.x) - std::max(a0.x, b0.x) + 1;
+  const std::int64_t dy = std::min(a1.y, b1.y) - std::max(a0.y, b0.y) + 1;
+  const std::int64_t dz = std::min(a1.z, b1.z) - std::max(a0.z, b0.z) + 1;
+  return dx > 0 && dy > 0 && dz > 0 ? dx * dy * dz : 0;
+}
+
+std::uint32_t find_root(std::uint32_t* parent, std::uint32_t i) {
+  while (parent[i] != i) {  // path halving: bounded by the tree height
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+}  // namespace
+
+FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
+    : config_(config.features),
+      cell_size_m_(config.cell_size_m),
+      z_up_(world_z_up),
+      dims_(config.zone_cells),
+      threshold_(static_cast<FusedCell>(
+          to_fixed(static_cast<float>(config.features.occupied_threshold_units)))),
+      reintegration_value_(static_cast<FusedCell>(
+          to_fixed(static_cast<float>(config.features.reintegration_units)))),
+      ground_thickness_cells_(
+          static_cast<int>(std::lround(config.features.ground_thickness_m / config.cell_size_m))),
+      ground_window_cells_(static_cast<int>(
+          std::lround(config.features.ground_window_m / config.cell_size_m / 2.0))),
+      capacity_(static_cast<std::size_t>(config.features.capacity)),
+      features_(new Feature[capacity_]),
+      shapes_(static_cast<std::size_t>(config.features.quadtree_groups),
+              std::max(config.zone_cells[0], config.zone_cells[1])),
+      visited_(new std::uint64_t[(zone_cell_count(config) + 63) / 64]),
+      component_(new std::uint32_t[zone_cell_count(config)]),
+      footprint_(new std::uint8_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
+      lowest_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
+      terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
+      column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
+      coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]),
+      observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]),
+      parent_(new std::uint32_t[capacity_]) {}
+
+std::size_t FeatureMap::reserved_bytes() const {
+  const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
+  const std::size_t cells = columns * static_cast<std::size_t>(dims_[2]);
+  return capacity_ * (sizeof(Feature) + sizeof(std::uint32_t)) + shapes_.reserved_bytes() +
+         (cells + 63) / 64 * 8 + cells * sizeof(std::uint32_t) + columns * (1 + 3 * 2) +
+         2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t);
+}
+
+std::size_t FeatureMap::count(FeatureKind kind) const {
+  return static_cast<std::size_t>(std::count_if(
+      begin(), end(), [kind](const Feature& f) { return f.in_use && f.kind == kind; }));
+}
+
+void FeatureMap::compute_terrain(const ZoneView& zone) {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const int nz = dims_[2];
+  const std::size_t columns = static_cast<std::size_t>(nx) * ny;
+  if (!config_.ground_enabled) {
+    std::fill_n(terrain_.get(), columns, kNoHeight);
+    return;
+  }
+  // Per column: the lowest occupied cell, and whether any cell is known at all.
+  // Summed-area tables of both give the window coverage in O(1).
+  const std::size_t stride = static_cast<std::size_t>(nx + 1);
+  std::fill_n(coverage_.get(), stride, 0);
+  std::fill_n(observed_.get(), stride, 0);
+  for (int y = 0; y < ny; ++y) {
+    std::int32_t covered_row = 0;
+    std::int32_t observed_row = 0;
+    coverage_[static_cast<std::size_t>(y + 1) * stride] = 0;
+    observed_[static_cast<std::size_t>(y + 1) * stride] = 0;
+    for (int x = 0; x < nx; ++x) {
+      std::int16_t lowest = kNoHeight;
+      bool known = false;
+      for (int h = 0; h < nz; ++h) {
+        const int z = z_up_ ? h : nz - 1 - h;
+        const FusedCell v = zone.cells[zone.index(x, y, z)];
+        known = known || v != 0;  // any evidence, free or occupied
+        if (v > threshold_) {
+          lowest = static_cast<std::int16_t>(h);
+          break;
+        }
+      }
+      lowest_[static_cast<std::size_t>(y) * nx + x] = lowest;
+      covered_row += lowest != kNoHeight ? 1 : 0;
+      observed_row += known ? 1 : 0;
+      const std::size_t at = static_cast<std::size_t>(y + 1) * stride + x + 1;
+      coverage_[at] = coverage_[at - stride] + covered_row;
+      observed_[at] = observed_[at - stride] + observed_row;
+    }
+  }
+  // Separable minimum over the window (columns without occupied cells ignored).
+  const int r = ground_window_cells_;
+  const std::int16_t none = INT16_MAX;
+  for (int y = 0; y < ny; ++y) {
+    for (int x = 0; x < nx; ++x) {
+      std::int16_t m = none;
+      for (int i = std::max(0, x - r); i <= std::min(nx - 1, x + r); ++i) {
+        const std::int16_t h = lowest_[static_cast<std::size_t>(y) * nx + i];
+        if (h != kNoHeight) m = std::min(m, h);
+      }
+      column_tmp_[static_cast<std::size_t>(y) * nx + x] = m;
+    }
+  }
+  for (int y = 0; y < ny; ++y) {
+    const int y0 = std::max(0, y - r);
+    const int y1 = std::min(ny - 1, y + r);
+    for (int x = 0; x < nx; ++x) {
+      std::int16_t m = none;
+      for (int j = y0; j <= y1; ++j)
+        m = std::min(m, column_tmp_[static_cast<std::size_t>(j) * nx + x]);
+      const int x0 = std::max(0, x - r);
+      const int x1 = std::min(nx - 1, x + r);
+      auto window_sum = [&](const std::int32_t* table) {
+        return table[static_cast<std::size_t>(y1 + 1) * stride + x1 + 1] -
+               table[static_cast<std::size_t>(y0) * stride + x1 + 1] -
+               table[static_cast<std::size_t>(y1 + 1) * stride + x0] +
+               table[static_cast<std::size_t>(y0) * stride + x0];
+      };
+      const std::int32_t covered = window_sum(coverage_.get());
+      const std::int32_t observed = window_sum(observed_.get());
+      const bool is_surface = m != none && covered >= config_.ground_min_coverage * observed;
+      terrain_[static_cast<std::size_t>(y) * nx + x] = is_surface ? m : kNoHeight;
+    }
+  }
+  // Columns at the rim of the seen ground (few observed columns hold the ground
+  // there) and in the shadows behind obstacles take the lowest terrain of the
+  // surface columns within three window radii.
+  min_filter(terrain_.get(), column_tmp_.get(), 3 * r);
+}
+
+void FeatureMap::min_filter(std::int16_t* values, std::int16_t* tmp, int r) const {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const std::int16_t none = INT16_MAX;
+  for (int y = 0; y < ny; ++y) {
+    for (int x = 0; x < nx; ++x) {
+      std::int16_t m = none;
+      for (int i = std::max(0, x - r); i <= std::min(nx - 1, x + r); ++i) {
+        const std::int16_t h = values[static_cast<std::size_t>(y) * nx + i];
+        if (h != kNoHeight) m = std::min(m, h);
+      }
+      tmp[static_cast<std::size_t>(y) * nx + x] = m;
+    }
+  }
+  for (int y = 0; y < ny; ++y) {
+    for (int x = 0; x < nx; ++x) {
+      std::int16_t m = none;
+      for (int j = std::max(0, y - r); j <= std::min(ny - 1, y + r); ++j) {
+        m = std::min(m, tmp[static_cast<std::size_t>(j) * nx + x]);
+      }
+      std::int16_t& v = values[static_cast<std::size_t>(y) * nx + x];
+      if (v == kNoHeight && m != none) v = m;
+    }
+  }
+}
+
+bool FeatureMap::is_ground_cell(int x, int y, int z) const {
+  const std::int16_t t = terrain_[static_cast<std::size_t>(y) * dims_[0] + x];
+  return t != kNoHeight && height_of(z) <= t + ground_thickness_cells_;
+}
+
+void FeatureMap::extract(const ZoneView& zone) {
+  ++counters_.extractions;
+  cells_ = zone.cells;
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const int nz = dims_[2];
+  const std::size_t total = static_cast<std::size_t>(nx) * ny * nz;
+  compute_terrain(zone);
+  std::fill_n(visited_.get(), (total + 63) / 64, std::uint64_t{0});
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (f->in_use && f->zone == zone.key) f->stale = true;
+  }
+  auto visited = [&](std::size_t i) { return (visited_[i >> 6] >> (i & 63)) & 1u; };
+  auto mark = [&](std::size_t i) { visited_[i >> 6] |= std::uint64_t{1} << (i & 63); };
+  const std::size_t plane = static_cast<std::size_t>(nx) * ny;
+
+  for (std::size_t start = 0; start < total; ++start) {
+    if (visited(start) || zone.cells[start] <= threshold_) continue;
+    const int sx = static_cast<int>(start % nx);
+    const int sy = static_cast<int>((start / nx) % ny);
+    const int sz = static_cast<int>(start / plane);
+    const bool ground = is_ground_cell(sx, sy, sz);
+    // Breadth-first fill of the 6-connected cells of the same class. Each cell is
+    // queued once (marked when queued), so the queue never exceeds the zone.
+    std::size_t head = 0;
+    std::size_t tail = 0;
+    component_[tail++] = static_cast<std::uint32_t>(start);
+    mark(start);
+    CellIndex lo{sx, sy, sz};
+    CellIndex hi{sx, sy, sz};
+    // An obstacle resting on the ground layer reaches down to the terrain surface:
+    // its lowest part lies within the ground thickness and was labelled ground.
+    int standing_height = INT32_MAX;
+    while (head < tail) {
+      const std::size_t i = component_[head++];
+      const int x = static_cast<int>(i % nx);
+      const int y = static_cast<int>((i / nx) % ny);
+      const int z = static_cast<int>(i / plane);
+      lo = {std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z)};
+      hi = {std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z)};
+      if (!ground) {
+        const int below = z_up_ ? z - 1 : z + 1;
+        if (below >= 0 && below < nz && zone.cells[zone.index(x, y, below)] > threshold_ &&
+            is_ground_cell(x, y, below)) {
+          standing_height =
+              std::min(standing_height, terrain_[static_cast<std::size_t>(y) * nx + x] + 1);
+        }
+      }
+      const int neighbour[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                                   {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+      for (const auto& n : neighbour) {
+        if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
+        const std::size_t j = zone.index(n[0], n[1], n[2]);
+        if (visited(j) || zone.cells[j] <= threshold_) continue;
+        if (is_ground_cell(n[0], n[1], n[2]) != ground) continue;
+        mark(j);
+        component_[tail++] = static_cast<std::uint32_t>(j);
+      }
+    }
+    const std::int32_t count = static_cast<std::int32_t>(tail);
+    if (count < config_.min_cells) {
+      ++counters_.objects_too_small;
+      continue;
+    }
+    if (standing_height != INT32_MAX) {
+      const int z_ground = z_up_ ? standing_height : nz - 1 - standing_height;
+      lo.z = std::min(lo.z, z_ground);
+      hi.z = std::max(hi.z, z_ground);
+    }
+    // Footprint s'(x, y) of eq. (8): any occupied cell in the column.
+    const int w = hi.x - lo.x + 1;
+    const int h = hi.y - lo.y + 1;
+    std::fill_n(footprint_.get(), static_cast<std::size_t>(w) * h, std::uint8_t{0});
+    for (std::size_t k = 0; k < tail; ++k) {
+      const std::size_t i = component_[k];
+      const int x = static_cast<int>(i % nx) - lo.x;
+      const int y = static_cast<int>((i / nx) % ny) - lo.y;
+      footprint_[static_cast<std::size_t>(y) * w + x] = 1;
+    }
+    upsert(zone, ground ? FeatureKind::kGround : FeatureKind::kObstacle,
+           CellIndex{zone.origin.x + lo.x, zone.origin.y + lo.y, zone.origin.z + lo.z},
+           CellIndex{zone.origin.x + hi.x, zone.origin.y + hi.y, zone.origin.z + hi.z}, count);
+  }
+  // Objects of this zone that the grid no longer holds.
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (f->in_use && f->stale) {
+      remove(f);
+      ++counters_.features_removed;
+    }
+  }
+}
+
+double FeatureMap::relevance(const Feature& f) const {
+  const Eigen::Vector3d centre =
+      Eigen::Vector3d(f.min.x + f.max.x + 1, f.min.y + f.max.y + 1, f.min.z + f.max.z + 1) *
+      (0.5 * cell_size_m_);
+  const double distance = (centre - vehicle_m_).norm();
+  const double weight = f.kind == FeatureKind::kObstacle ? 1.0 : 0.1;
+  return weight * f.cells / (1.0 + (distance / 10.0) * (distance / 10.0));
+}
+
+void FeatureMap::remove(Feature* f) {
+  if (f->has_shape) shapes_.release(&f->shape);
+  *f = Feature{};
+  --in_use_;
+}
+
+Feature* FeatureMap::free_slot(double new_relevance) {
+  Feature* least = nullptr;
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (!f->in_use) return f;
+    // Stale features are being matched in this extraction: keep them out of the choice.
+    if (!f->stale && (least == nullptr || relevance(*f) < relevance(*least))) least = f;
+  }
+  if (least == nullptr || relevance(*least) >= new_relevance) {
+    ++counters_.features_dropped;
+    return nullptr;
+  }
+  remove(least);
+  ++counters_.features_evicted;
+  return least;
+}
+
+void FeatureMap::upsert(const ZoneView& zone, FeatureKind kind, const CellIndex& min,
+                        const CellIndex& max, std::int32_t cells) {
+  // The same object as before: the stale feature of this zone and kind that
+  // overlaps the new box most.
+  Feature* match = nullptr;
+  std::int64_t best = 0;
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (!f->in_use || !f->stale || f->kind != kind || !(f->zone == zone.key)) continue;
+    const std::int64_t v = overlap_volume(f->min, f->max, min, max);
+    if (v > best) {
+      best = v;
+      match = f;
+    }
+  }
+  if (match == nullptr) {
+    Feature candidate;
+    candidate.kind = kind;
+    candidate.min = min;
+    candidate.max = max;
+    candidate.cells = cells;
+    match = free_slot(relevance(candidate));
+    if (match == nullptr) return;
+    match->id = next_id_++;
+    match->first_seen_s = time_s_;
+    match->in_use = true;
+    ++in_use_;
+    ++counters_.features_added;
+  } else {
+    if (match->has_shape) shapes_.release(&match->shape);
+    ++counters_.features_updated;
+  }
+  match->kind = kind;
+  match->zone = zone.key;
+  match->min = min;
+  match->max = max;
+  match->cells = cells;
+  match->last_seen_s = time_s_;
+  match->stale = false;
+  match->has_shape = shapes_.build(footprint_.get(), max.x - min.x + 1, max.y - min.y + 1,
+                                   &match->shape, &match->shape_side);
+  if (!match->has_shape) ++counters_.shapes_truncated;
+}
+
+bool FeatureMap::feature_contains(const Feature& f, const CellIndex& c) const {
+  if (c.x < f.min.x || c.y < f.min.y || c.z < f.min.z || c.x > f.max.x || c.y > f.max.y ||
+      c.z > f.max.z) {
+    return false;
+  }
+  return !f.has_shape || shapes_.contains(f.shape, f.shape_side, c.x - f.min.x, c.y - f.min.y);
+}
+
+void FeatureMap::on_zone_allocated(ZoneView& zone) {
+  // §IV-B: cells inside a stored object's shape (footprint x z extent) become
+  // occupied with a high value; everything else stays unknown.
+  for (const Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (!f->in_use || f->kind != FeatureKind::kObstacle || !(f->zone == zone.key)) continue;
+    for (int z = f->min.z; z <= f->max.z; ++z)
+      for (int y = f->min.y; y <= f->max.y; ++y)
+        for (int x = f->min.x; x <= f->max.x; ++x) {
+          if (f->has_shape &&
+              !shapes_.contains(f->shape, f->shape_side, x - f->min.x, y - f->min.y))
+            continue;
+          FusedCell& cell =
+              zone.cells[zone.index(x - zone.origin.x, y - zone.origin.y, z - zone.origin.z)];
+          cell = std::max(cell, reintegration_value_);
+          ++counters_.cells_reintegrated;
+        }
+  }
+}
+
+std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool include_ground) {
+  const int gap = config_.merge_gap_cells;
+  for (std::size_t i = 0; i < capacity_; ++i) parent_[i] = static_cast<std::uint32_t>(i);
+  // Features of one object cut by zone faces touch across the face.
+  for (std::size_t i = 0; i < capacity_; ++i) {
+    const Feature& a = features_[i];
+    if (!a.in_use) continue;
+    for (std::size_t j = i + 1; j < capacity_; ++j) {
+      const Feature& b = features_[j];
+      if (!b.in_use || b.kind != a.kind || b.zone == a.zone) continue;
+      if (a.min.x > b.max.x + gap || b.min.x > a.max.x + gap || a.min.y > b.max.y + gap ||
+          b.min.y > a.max.y + gap || a.min.z > b.max.z + gap || b.min.z > a.max.z + gap) {
+        continue;
+      }
+      const std::uint32_t ra = find_root(parent_.get(), static_cast<std::uint32_t>(i));
+      const std::uint32_t rb = find_root(parent_.get(), static_cast<std::uint32_t>(j));
+      if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  std::size_t n = 0;
+  // Roots first write their group; obstacles before ground.
+  for (const FeatureKind kind : {FeatureKind::kObstacle, FeatureKind::kGround}) {
+    if (kind == FeatureKind::kGround && !include_ground) break;
+    for (std::size_t i = 0; i < capacity_ && n < capacity; ++i) {
+      const Feature& root = features_[i];
+      if (!root.in_use || root.kind != kind ||
+          find_root(parent_.get(), static_cast<std::uint32_t>(i)) != i) {
+        continue;
+      }
+      ObstacleBox box;
+      box.kind = kind;
+      box.id = root.id;
+      CellIndex lo = root.min;
+      CellIndex hi = root.max;
+      for (std::size_t j = i; j < capacity_; ++j) {
+        const Feature& f = features_[j];
+        if (!f.in_use || find_root(parent_.get(), static_cast<std::uint32_t>(j)) != i) continue;
+        lo = {std::min(lo.x, f.min.x), std::min(lo.y, f.min.y), std::min(lo.z, f.min.z)};
+        hi = {std::max(hi.x, f.max.x), std::max(hi.y, f.max.y), std::max(hi.z, f.max.z)};
+        box.id = std::min(box.id, f.id);
+        box.cells += f.cells;
+        ++box.parts;
+      }
+      box.min = Eigen::Vector3d(lo.x, lo.y, lo.z) * cell_size_m_;
+      box.max = Eigen::Vector3d(hi.x + 1, hi.y + 1, hi.z + 1) * cell_size_m_;
+      out[n++] = box;
+    }
+  }
+  return n;
+}
+
+}  // namespace zonemap

@@ -1,0 +1,351 @@
+// The feature map (paper §IV): flood fill, boxes, quadtree footprints, ground
+// split, re-integration, cross-zone merge, store policy.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "hal/os/allocation_counter.hpp"
+#include "tools/sim/scene.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/quadtree.hpp"
+
+namespace zonemap {
+namespace {
+
+// A zone buffer of its own, for hand-made grids.
+struct TestZone {
+  std::vector<FusedCell> cells;
+  ZoneView view;
+  TestZone(const std::array<int, 3>& dims, const ZoneKey& key)
+      : cells(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2], 0) {
+    view = ZoneView{key, CellIndex{key.i * dims[0], key.j * dims[1], key.k * dims[2]}, dims,
+                    cells.data()};
+  }
+  void set(int x, int y, int z, FusedCell v = 4 * kCellScale) { cells[view.index(x, y, z)] = v; }
+  FusedCell at(int x, int y, int z) const { return cells[view.index(x, y, z)]; }
+};
+
+MapConfig feature_config(std::array<int, 3> dims, bool ground) {
+  MapConfig config;
+  config.cell_size_m = 1.0;
+  config.zone_cells = dims;
+  config.features.min_cells = 1;
+  config.features.ground_enabled = ground;
+  config.features.ground_thickness_m = 1.0;
+  config.features.ground_window_m = 4.0;
+  config.features.capacity = 64;
+  config.features.quadtree_groups = 1024;
+  return config;
+}
+
+std::vector<const Feature*> features_of(const FeatureMap& map, FeatureKind kind) {
+  std::vector<const Feature*> out;
+  for (const Feature* f = map.begin(); f != map.end(); ++f)
+    if (f->in_use && f->kind == kind) out.push_back(f);
+  return out;
+}
+
+// --- quadtree -------------------------------------------------------------------
+
+TEST(Quadtree, RoundTripIsIdentical) {
+  QuadtreePool pool(4096, 64);
+  sim::Rng rng(3);
+  for (const auto& [w, h] :
+       std::vector<std::pair<int, int>>{{1, 1}, {3, 5}, {17, 9}, {64, 64}, {33, 2}}) {
+    for (double density : {0.0, 0.3, 0.8, 1.0}) {
+      std::vector<std::uint8_t> in(static_cast<std::size_t>(w) * h);
+      for (auto& c : in) c = rng.uniform() < density ? 1 : 0;
+      QuadNode root;
+      int side = 0;
+      const std::size_t free_before = pool.groups_free();
+      ASSERT_TRUE(pool.build(in.data(), w, h, &root, &side));
+      EXPECT_GE(side, std::max(w, h));
+      std::vector<std::uint8_t> out(in.size(), 7);
+      pool.rasterize(root, side, w, h, out.data());
+      EXPECT_EQ(out, in) << w << "x" << h << " density " << density;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          ASSERT_EQ(pool.contains(root, side, x, y), in[static_cast<std::size_t>(y) * w + x] != 0);
+      pool.release(&root);
+      EXPECT_EQ(pool.groups_free(), free_before) << "every node goes back to the pool";
+    }
+  }
+}
+
+TEST(Quadtree, UniformSquaresAreOneNode) {
+  QuadtreePool pool(16, 16);
+  std::vector<std::uint8_t> full(16 * 16, 1);
+  QuadNode root;
+  int side = 0;
+  ASSERT_TRUE(pool.build(full.data(), 16, 16, &root, &side));
+  EXPECT_EQ(root.state, QuadState::kFull);
+  EXPECT_EQ(pool.node_count(root), 1u);
+  // Full but not square: the padding is empty, so the root splits.
+  std::vector<std::uint8_t> wide(16 * 8, 1);
+  ASSERT_TRUE(pool.build(wide.data(), 16, 8, &root, &side));
+  EXPECT_EQ(root.state, QuadState::kMixed);
+  EXPECT_EQ(pool.node_count(root), 5u);
+}
+
+TEST(Quadtree, ExhaustedPoolRefusesAndLeaksNothing) {
+  QuadtreePool pool(2, 64);
+  std::vector<std::uint8_t> checker(32 * 32);
+  for (int i = 0; i < 32 * 32; ++i) {
+    checker[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(((i % 32) + i / 32) % 2);
+  }
+  QuadNode root;
+  int side = 0;
+  EXPECT_FALSE(pool.build(checker.data(), 32, 32, &root, &side));
+  EXPECT_EQ(pool.groups_free(), 2u);
+  EXPECT_EQ(root.state, QuadState::kEmpty);
+}
+
+// --- extraction -----------------------------------------------------------------
+
+TEST(FeatureExtraction, SixConnectivityNotDiagonals) {
+  const std::array<int, 3> dims = {8, 8, 8};
+  FeatureMap map(feature_config(dims, false), true);
+  TestZone zone(dims, {0, 0, 0});
+  // Two cells sharing a face: one object.
+  zone.set(1, 1, 1);
+  zone.set(2, 1, 1);
+  // Two cells sharing only an edge: two objects (26-connectivity would join them).
+  zone.set(5, 5, 1);
+  zone.set(6, 6, 1);
+  // Sharing only a corner: two more.
+  zone.set(1, 5, 5);
+  zone.set(2, 6, 6);
+  map.extract(zone.view);
+  const auto objects = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(objects.size(), 5u);
+  int pairs = 0;
+  for (const Feature* f : objects) {
+    if (f->cells == 2) {
+      ++pairs;
+      EXPECT_EQ(f->min, (CellIndex{1, 1, 1}));
+      EXPECT_EQ(f->max, (CellIndex{2, 1, 1}));
+    } else {
+      EXPECT_EQ(f->cells, 1);
+    }
+  }
+  EXPECT_EQ(pairs, 1);
+}
+
+TEST(FeatureExtraction, BoxAndFootprintOfAnLShape) {
+  const std::array<int, 3> dims = {10, 10, 6};
+  FeatureMap map(feature_config(dims, false), true);
+  TestZone zone(dims, {2, -1, 0});  // world cells x 20..29, y -10..-1
+  for (int z = 1; z <= 3; ++z) {
+    for (int x = 2; x <= 6; ++x) zone.set(x, 2, z);
+    for (int y = 3; y <= 5; ++y) zone.set(2, y, z);
+  }
+  map.extract(zone.view);
+  const auto objects = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(objects.size(), 1u);
+  const Feature& f = *objects[0];
+  EXPECT_EQ(f.cells, 3 * (5 + 3));
+  EXPECT_EQ(f.min, (CellIndex{22, -8, 1}));
+  EXPECT_EQ(f.max, (CellIndex{26, -5, 3}));
+  EXPECT_TRUE(f.has_shape);
+  EXPECT_TRUE(map.feature_contains(f, {22, -8, 2}));
+  EXPECT_TRUE(map.feature_contains(f, {26, -8, 2}));
+  EXPECT_TRUE(map.feature_contains(f, {22, -5, 3}));
+  EXPECT_FALSE(map.feature_contains(f, {25, -6, 2})) << "inside the box, outside the L";
+  EXPECT_FALSE(map.feature_contains(f, {22, -8, 4})) << "above the box";
+}
+
+TEST(FeatureExtraction, PostOnAPlaneIsOneObstacleAndGround) {
+  const std::array<int, 3> dims = {30, 30, 12};
+  FeatureMap map(feature_config(dims, true), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x) {
+      zone.set(x, y, 2);                                            // the field
+      for (int z = 3; z < 12; ++z) zone.set(x, y, z, -kCellScale);  // free air above
+    }
+  for (int z = 3; z <= 9; ++z) zone.set(15, 12, z);  // a post
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  const auto ground = features_of(map, FeatureKind::kGround);
+  ASSERT_EQ(obstacles.size(), 1u);
+  ASSERT_EQ(ground.size(), 1u);
+  EXPECT_EQ(obstacles[0]->min.x, 15);
+  EXPECT_EQ(obstacles[0]->max.x, 15);
+  EXPECT_EQ(obstacles[0]->min.y, 12);
+  EXPECT_EQ(obstacles[0]->max.y, 12);
+  EXPECT_EQ(obstacles[0]->min.z, 3) << "stands on the terrain (z = 2)";
+  EXPECT_EQ(obstacles[0]->max.z, 9);
+  EXPECT_EQ(ground[0]->min, (CellIndex{0, 0, 2}));
+  EXPECT_EQ(ground[0]->max, (CellIndex{29, 29, 3}));
+}
+
+TEST(FeatureExtraction, ThingInFreeSpaceIsNotGround) {
+  // A crown cut by the zone's bottom face: low, but surrounded by free air, so
+  // not a surface (it fills 16 of the 121 columns of a 10 m window); it stays an
+  // obstacle.
+  const std::array<int, 3> dims = {30, 30, 12};
+  MapConfig config = feature_config(dims, true);
+  config.features.ground_window_m = 10.0;
+  FeatureMap map(config, true);
+  TestZone zone(dims, {0, 0, 1});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x)
+      for (int z = 0; z < 12; ++z) zone.set(x, y, z, -kCellScale);
+  for (int y = 10; y < 14; ++y)
+    for (int x = 10; x < 14; ++x)
+      for (int z = 0; z < 3; ++z) zone.set(x, y, z);
+  map.extract(zone.view);
+  EXPECT_EQ(features_of(map, FeatureKind::kGround).size(), 0u);
+  ASSERT_EQ(features_of(map, FeatureKind::kObstacle).size(), 1u);
+  EXPECT_EQ(features_of(map, FeatureKind::kObstacle)[0]->cells, 4 * 4 * 3);
+}
+
+TEST(FeatureExtraction, ReExtractionUpdatesInsteadOfDuplicating) {
+  const std::array<int, 3> dims = {10, 10, 6};
+  FeatureMap map(feature_config(dims, false), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int x = 2; x <= 4; ++x) zone.set(x, 2, 2);
+  map.set_context(1.0, {0, 0, 0});
+  map.extract(zone.view);
+  ASSERT_EQ(map.count(), 1u);
+  const std::uint32_t id =
+      map.begin()->id == 0 ? 0 : features_of(map, FeatureKind::kObstacle)[0]->id;
+  zone.set(5, 2, 2);  // the object grew
+  map.set_context(2.0, {0, 0, 0});
+  map.extract(zone.view);
+  const auto objects = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_EQ(objects[0]->id, id) << "stable id";
+  EXPECT_EQ(objects[0]->cells, 4);
+  EXPECT_EQ(objects[0]->first_seen_s, 1.0);
+  EXPECT_EQ(objects[0]->last_seen_s, 2.0);
+  EXPECT_EQ(map.counters().features_updated, 1);
+  // The grid no longer holds it (free evidence cleared it): the feature goes.
+  std::fill(zone.cells.begin(), zone.cells.end(), FusedCell{0});
+  map.extract(zone.view);
+  EXPECT_EQ(map.count(), 0u);
+  EXPECT_EQ(map.counters().features_removed, 1);
+  EXPECT_EQ(map.shapes().groups_free(), map.shapes().groups_total());
+}
+
+TEST(FeatureExtraction, SmallObjectsAreCountedAsNoise) {
+  const std::array<int, 3> dims = {10, 10, 6};
+  MapConfig config = feature_config(dims, false);
+  config.features.min_cells = 3;
+  FeatureMap map(config, true);
+  TestZone zone(dims, {0, 0, 0});
+  zone.set(1, 1, 1);
+  for (int x = 4; x <= 6; ++x) zone.set(x, 4, 4);
+  map.extract(zone.view);
+  EXPECT_EQ(map.count(), 1u);
+  EXPECT_EQ(map.counters().objects_too_small, 1);
+}
+
+// --- re-integration (§IV-B) -----------------------------------------------------
+
+TEST(FeatureReintegration, ExactlyTheShapeCellsBecomeOccupied) {
+  const std::array<int, 3> dims = {10, 10, 6};
+  MapConfig config = feature_config(dims, false);
+  FeatureMap map(config, true);
+  TestZone zone(dims, {1, 0, 0});
+  for (int z = 1; z <= 3; ++z) {
+    for (int x = 2; x <= 6; ++x) zone.set(x, 2, z);
+    for (int y = 3; y <= 5; ++y) zone.set(2, y, z);
+  }
+  map.extract(zone.view);
+  TestZone fresh(dims, {1, 0, 0});  // the zone allocated again, cleared
+  map.on_zone_allocated(fresh.view);
+  const FusedCell high = static_cast<FusedCell>(to_fixed(4.0f));
+  for (int z = 0; z < 6; ++z)
+    for (int y = 0; y < 10; ++y)
+      for (int x = 0; x < 10; ++x) {
+        const bool in_shape =
+            z >= 1 && z <= 3 && ((y == 2 && x >= 2 && x <= 6) || (x == 2 && y >= 3 && y <= 5));
+        ASSERT_EQ(fresh.at(x, y, z), in_shape ? high : 0) << x << "," << y << "," << z;
+      }
+  EXPECT_EQ(map.counters().cells_reintegrated, 24);
+  // Another zone gets nothing.
+  TestZone other(dims, {2, 0, 0});
+  map.on_zone_allocated(other.view);
+  for (FusedCell c : other.cells) ASSERT_EQ(c, 0);
+}
+
+// --- merge across zones ---------------------------------------------------------
+
+TEST(FeatureMerge, ObjectCutByAZoneFaceIsOneBox) {
+  const std::array<int, 3> dims = {10, 10, 6};
+  FeatureMap map(feature_config(dims, false), true);
+  TestZone left(dims, {0, 0, 0});
+  TestZone right(dims, {1, 0, 0});
+  for (int z = 1; z <= 2; ++z) {
+    for (int x = 7; x <= 9; ++x) left.set(x, 4, z);   // world x 7..9
+    for (int x = 0; x <= 1; ++x) right.set(x, 4, z);  // world x 10..11
+  }
+  left.set(2, 8, 1);  // a separate object in the left zone
+  left.set(3, 8, 1);
+  map.extract(left.view);
+  map.extract(right.view);
+  EXPECT_EQ(map.count(), 3u) << "storage stays per zone";
+  std::vector<ObstacleBox> boxes(8);
+  const std::size_t n = map.merged(boxes.data(), boxes.size(), false);
+  ASSERT_EQ(n, 2u);
+  const ObstacleBox& joined = boxes[0].parts == 2 ? boxes[0] : boxes[1];
+  EXPECT_EQ(joined.parts, 2);
+  EXPECT_EQ(joined.cells, 10);
+  EXPECT_DOUBLE_EQ(joined.min.x(), 7.0);
+  EXPECT_DOUBLE_EQ(joined.max.x(), 12.0);
+  EXPECT_DOUBLE_EQ(joined.min.z(), 1.0);
+  EXPECT_DOUBLE_EQ(joined.max.z(), 3.0);
+}
+
+// --- store policy ---------------------------------------------------------------
+
+TEST(FeatureStore, FullStoreKeepsTheMostRelevantAndSaysSo) {
+  const std::array<int, 3> dims = {20, 20, 6};
+  MapConfig config = feature_config(dims, false);
+  config.features.capacity = 2;
+  FeatureMap map(config, true);
+  map.set_context(0.0, {5.0, 5.0, 2.0});
+  TestZone zone(dims, {0, 0, 0});
+  auto block = [&](int x0, int size) {
+    for (int x = x0; x < x0 + size; ++x)
+      for (int y = 2; y < 2 + size; ++y) zone.set(x, y, 2);
+  };
+  block(1, 2);   // 4 cells, near the vehicle
+  block(7, 3);   // 9 cells, near
+  block(15, 1);  // 1 cell, far: the least relevant
+  map.extract(zone.view);
+  EXPECT_EQ(map.count(), 2u);
+  EXPECT_EQ(map.counters().features_dropped + map.counters().features_evicted, 1);
+  for (const Feature* f : features_of(map, FeatureKind::kObstacle)) EXPECT_NE(f->cells, 1);
+  // A big object near the vehicle in another zone evicts the weakest.
+  TestZone next(dims, {0, 1, 0});
+  for (int x = 0; x < 6; ++x)
+    for (int y = 0; y < 6; ++y) next.set(x, y, 2);
+  map.extract(next.view);
+  EXPECT_EQ(map.count(), 2u);
+  EXPECT_GE(map.counters().features_evicted, 1);
+  bool has_big = false;
+  for (const Feature* f : features_of(map, FeatureKind::kObstacle))
+    has_big = has_big || f->cells == 36;
+  EXPECT_TRUE(has_big);
+}
+
+TEST(FeatureStore, ExtractionAndReintegrationDoNotAllocate) {
+  const std::array<int, 3> dims = {30, 30, 12};
+  FeatureMap map(feature_config(dims, true), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x) zone.set(x, y, 2);
+  for (int z = 3; z <= 9; ++z) zone.set(15, 12, z);
+  os::AllocationScope scope;
+  for (int i = 0; i < 3; ++i) map.extract(zone.view);
+  TestZone* again = &zone;
+  map.on_zone_allocated(again->view);
+  std::array<ObstacleBox, 8> boxes;
+  map.merged(boxes.data(), boxes.size(), true);
+  EXPECT_EQ(scope.counted().allocations, 0);
+}
+
+}  // namespace
+}  // namespace zonemap

@@ -1,0 +1,133 @@
+// The feature map's numbers on the generated paper scenarios (issue: posts within
+// 0.5 m, recall 100%, <= 5% false boxes, out-and-back keeps every obstacle).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "test_support.hpp"
+#include "tools/eval/evaluate.hpp"
+#include "tools/replay/replay_run.hpp"
+
+namespace zonemap {
+namespace {
+
+using testing::TempDir;
+
+struct ScenarioRun {
+  tools::Evaluation evaluation;
+  std::vector<tools::RunBox> boxes;
+  std::vector<tools::TruthObject> objects;
+};
+
+ScenarioRun map_and_evaluate(const std::string& name, double rate, int pixel_step) {
+  ScenarioRun result;
+  TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string config = testing::write_test_scenario(name, sequence, rate, pixel_step);
+  tools::ReplayRun run;
+  tools::ReplayOptions options;
+  options.sequence_dir = sequence;
+  options.config_path = config;
+  options.quiet = true;
+  std::string error;
+  if (!run.open(options, &error)) {
+    ADD_FAILURE() << error;
+    return result;
+  }
+  run.run();
+  EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
+  EXPECT_TRUE(run.write_outputs(dir / "out", &error)) << error;
+  EXPECT_TRUE(tools::load_objects_yaml(sequence + "/objects.yaml", &result.objects, &error))
+      << error;
+  EXPECT_TRUE(tools::load_boxes_csv(dir / "out/boxes.csv", &result.boxes, &error)) << error;
+  result.evaluation = tools::evaluate(result.objects, result.boxes, run.config().cell_size_m);
+  std::printf("[ %s ]\n%s", name.c_str(), tools::to_table(result.evaluation).c_str());
+  return result;
+}
+
+std::vector<tools::RunBox> obstacles(const std::vector<tools::RunBox>& boxes) {
+  std::vector<tools::RunBox> out;
+  for (const auto& b : boxes)
+    if (b.kind == "obstacle") out.push_back(b);
+  return out;
+}
+
+void expect_two_posts(const ScenarioRun& r) {
+  ASSERT_EQ(obstacles(r.boxes).size(), 2u) << "exactly two obstacle boxes";
+  ASSERT_EQ(r.evaluation.objects.size(), 2u);
+  for (const auto& o : r.evaluation.objects) {
+    EXPECT_TRUE(o.detected) << o.name;
+    EXPECT_LE(o.centre_error_xy_m, 0.5) << o.name;
+  }
+  const double spacing =
+      (r.evaluation.objects[0].box_centre - r.evaluation.objects[1].box_centre).norm();
+  EXPECT_NEAR(spacing, 7.0, 0.5);
+}
+
+TEST(FeatureScenarios, PostsFlownThroughAndAroundAgree) {
+  const ScenarioRun through = map_and_evaluate("posts-through", 5.0, 4);
+  const ScenarioRun around = map_and_evaluate("posts-around", 3.0, 4);
+  expect_two_posts(through);
+  expect_two_posts(around);
+  if (through.evaluation.objects.size() == 2 && around.evaluation.objects.size() == 2) {
+    for (int i = 0; i < 2; ++i) {
+      EXPECT_LE((through.evaluation.objects[static_cast<std::size_t>(i)].box_centre -
+                 around.evaluation.objects[static_cast<std::size_t>(i)].box_centre)
+                    .norm(),
+                0.5)
+          << "both flights put post " << i << " in the same place";
+    }
+  }
+}
+
+TEST(FeatureScenarios, BushesAndAircraftAllFound) {
+  const ScenarioRun r = map_and_evaluate("bushes", 4.0, 4);
+  EXPECT_EQ(r.evaluation.recall, 1.0);
+  EXPECT_LE(r.evaluation.false_box_fraction, 0.05);
+}
+
+TEST(FeatureScenarios, TreeLineAllTreesFoundEachItsOwnBox) {
+  const ScenarioRun r = map_and_evaluate("treeline", 2.0, 4);
+  EXPECT_EQ(r.evaluation.recall, 1.0);
+  EXPECT_LE(r.evaluation.false_box_fraction, 0.05);
+  // The trees stand 7 m apart: the ground model keeps them apart.
+  EXPECT_EQ(obstacles(r.boxes).size(), r.objects.size());
+}
+
+TEST(FeatureScenarios, OutAndBackKeepsEveryObstacle) {
+  TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string config = testing::write_test_scenario("out-and-back", sequence, 2.5, 4);
+  tools::ReplayRun run;
+  tools::ReplayOptions options;
+  options.sequence_dir = sequence;
+  options.config_path = config;
+  options.quiet = true;
+  std::string error;
+  ASSERT_TRUE(run.open(options, &error)) << error;
+  const std::size_t half = run.sequence().frame_count() / 2;
+  run.run_frames(0, half);  // out to x = 200 m
+  run.extract_live_zones();
+  const std::vector<ObstacleBox> outbound = run.boxes(false);
+  run.run_frames(half, run.sequence().frame_count());  // and back
+  run.finish();
+  const std::vector<ObstacleBox> final_boxes = run.boxes(false);
+  EXPECT_GT(run.stats().zones_discarded, 4) << "the route discards zones";
+  EXPECT_GT(run.stats().feature_counters.cells_reintegrated, 0) << "and allocates them again";
+  EXPECT_GE(outbound.size(), 4u);
+  EXPECT_LE(final_boxes.size(), outbound.size()) << "the box count does not grow on the way back";
+  const double cell = run.config().cell_size_m;
+  for (const ObstacleBox& seen : outbound) {
+    bool kept = false;
+    for (const ObstacleBox& b : final_boxes) {
+      kept = kept || ((seen.min.array() <= b.max.array() + cell).all() &&
+                      (b.min.array() <= seen.max.array() + cell).all());
+    }
+    EXPECT_TRUE(kept) << "obstacle " << seen.id << " seen on the way out is still mapped";
+  }
+  EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
+}
+
+}  // namespace
+}  // namespace zonemap

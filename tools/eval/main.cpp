@@ -1,0 +1,53 @@
+// zonemap-eval SEQUENCE RUN_DIR [--tolerance M]
+// Compares RUN_DIR/boxes.csv with SEQUENCE/objects.yaml; writes RUN_DIR/eval.json
+// and prints a table. The tolerance (default: the run's cell size from
+// stats.json, else 0.5 m) is how far a box may miss an object and still count.
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include "tools/eval/evaluate.hpp"
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: zonemap-eval SEQUENCE RUN_DIR [--tolerance M]\n");
+    return 2;
+  }
+  const std::string sequence = argv[1];
+  const std::string run = argv[2];
+  double tolerance = -1.0;
+  for (int i = 3; i < argc; ++i) {
+    if (std::string(argv[i]) == "--tolerance" && i + 1 < argc) {
+      tolerance = std::atof(argv[++i]);
+    } else {
+      std::fprintf(stderr, "zonemap-eval: unknown argument %s\n", argv[i]);
+      return 2;
+    }
+  }
+  if (tolerance < 0.0) {
+    std::ifstream stats(run + "/stats.json");
+    std::stringstream text;
+    text << stats.rdbuf();
+    std::smatch m;
+    const std::string s = text.str();
+    tolerance = std::regex_search(s, m, std::regex("\"cell_size_m\": ([0-9.]+)"))
+                    ? std::atof(m[1].str().c_str())
+                    : 0.5;
+  }
+  std::vector<zonemap::tools::TruthObject> objects;
+  std::vector<zonemap::tools::RunBox> boxes;
+  std::string error;
+  if (!zonemap::tools::load_objects_yaml(sequence + "/objects.yaml", &objects, &error) ||
+      !zonemap::tools::load_boxes_csv(run + "/boxes.csv", &boxes, &error)) {
+    std::fprintf(stderr, "zonemap-eval: %s\n", error.c_str());
+    return 1;
+  }
+  const auto evaluation = zonemap::tools::evaluate(objects, boxes, tolerance);
+  std::ofstream(run + "/eval.json") << zonemap::tools::to_json(evaluation);
+  std::printf("%s(tolerance %.2f m) -> %s/eval.json\n",
+              zonemap::tools::to_table(evaluation).c_str(), tolerance, run.c_str());
+  return 0;
+}

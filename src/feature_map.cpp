@@ -273,8 +273,9 @@ double FeatureMap::relevance(const Feature& f) const {
       Eigen::Vector3d(f.min.x + f.max.x + 1, f.min.y + f.max.y + 1, f.min.z + f.max.z + 1) *
       (0.5 * cell_size_m_);
   const double distance = (centre - vehicle_m_).norm();
-  const double weight = f.kind == FeatureKind::kObstacle ? 1.0 : 0.1;
-  return weight * f.cells / (1.0 + (distance / 10.0) * (distance / 10.0));
+  const double score = f.cells / (1.0 + (distance / 10.0) * (distance / 10.0));
+  // Any obstacle outranks any ground feature (a zone holds < 1e9 cells).
+  return f.kind == FeatureKind::kObstacle ? 1e9 + score : score;
 }
 
 void FeatureMap::remove(Feature* f) {

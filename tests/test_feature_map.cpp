@@ -331,6 +331,21 @@ TEST(FeatureStore, FullStoreKeepsTheMostRelevantAndSaysSo) {
   EXPECT_TRUE(has_big);
 }
 
+TEST(FeatureStore, ObstaclesOutrankGroundWhenFull) {
+  const std::array<int, 3> dims = {30, 30, 12};
+  MapConfig config = feature_config(dims, true);
+  config.features.capacity = 1;
+  FeatureMap map(config, true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x) zone.set(x, y, 2);  // 900 ground cells
+  for (int z = 3; z <= 9; ++z) zone.set(15, 12, z);  // a 7-cell post
+  map.extract(zone.view);
+  ASSERT_EQ(map.count(), 1u);
+  EXPECT_EQ(map.count(FeatureKind::kObstacle), 1u);
+  EXPECT_EQ(map.counters().features_dropped + map.counters().features_evicted, 1);
+}
+
 TEST(FeatureStore, ExtractionAndReintegrationDoNotAllocate) {
   const std::array<int, 3> dims = {30, 30, 12};
   FeatureMap map(feature_config(dims, true), true);

@@ -23,10 +23,11 @@ void ReplayRun::log_rejection(const char* kind, std::int64_t count,
                               const std::string& message) const {
   if (options_.quiet) return;
   if (count <= kLoggedPerKind) {
-    std::fprintf(stderr, "\nzonemap-replay: frame %s: %s\n", kind, message.c_str());
+    std::fprintf(stderr, "\nzonemap-replay: %s: %s\n", kind, message.c_str());
   }
   if (count == kLoggedPerKind) {
-    std::fprintf(stderr, "zonemap-replay: further '%s' frames are counted, not logged\n", kind);
+    std::fprintf(stderr, "zonemap-replay: further '%s' are counted in stats.json, not logged\n",
+                 kind);
   }
 }
 
@@ -102,23 +103,23 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     if (!sequence_.read(i, &frame, &why)) {
       ++stats_.frames_rejected;
       if (!sequence_.entry(i).time_in_order) {
-        log_rejection("out of order", ++stats_.frames_rejected_time_order, why);
+        log_rejection("frame out of order", ++stats_.frames_rejected_time_order, why);
       } else {
-        log_rejection("unreadable", ++stats_.frames_rejected_bad_image, why);
+        log_rejection("frame unreadable", ++stats_.frames_rejected_bad_image, why);
       }
       continue;
     }
     if (!frame.left_problem.empty()) {
       ++stats_.left_images_rejected;
-      log_rejection("left image unusable (sky filter off)", stats_.left_images_rejected,
-                    frame.left_problem);
+      log_rejection("left image unusable (sky filter off for the frame)",
+                    stats_.left_images_rejected, frame.left_problem);
     }
     Eigen::Isometry3d pose;
     if (sequence_.poses().lookup(frame.time_s, &pose) == PoseLookup::kNoPose) {
       ++stats_.frames_skipped_no_pose;
       char msg[96];
       std::snprintf(msg, sizeof(msg), "t=%.6f has no pose within tolerance", frame.time_s);
-      log_rejection("skipped", stats_.frames_skipped_no_pose, msg);
+      log_rejection("frame skipped", stats_.frames_skipped_no_pose, msg);
       continue;
     }
     DepthFrameView view;
@@ -144,11 +145,13 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
       const bool bad_pose = report.status == FrameStatus::kBadPose;
       const std::int64_t count =
           bad_pose ? ++stats_.frames_rejected_bad_pose : ++stats_.frames_rejected_bad_image;
-      log_rejection(bad_pose ? "bad pose" : "bad image", count, sequence_.entry(i).path);
+      log_rejection(bad_pose ? "frame with bad pose" : "frame with bad image", count,
+                    sequence_.entry(i).path);
       continue;
     }
     ++stats_.frames_mapped;
     frame_ms_.push_back(ms);
+    log_feature_store_events();
     if (stats_.frames_mapped % config_.features.extract_every_frames == 0) extract_live_zones();
     trajectory_.push_back(pose.translation());
     mapped_frames_.push_back(i);
@@ -197,6 +200,24 @@ void ReplayRun::extract_live_zones() {
   }
   extract_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  log_feature_store_events();
+}
+
+void ReplayRun::log_feature_store_events() {
+  // The core counts; the edge says it (first few times, then stats.json holds it).
+  const FeatureCounters& now = features_->counters();
+  auto report = [&](std::int64_t current, std::int64_t* logged, const char* what) {
+    if (current == *logged) return;
+    *logged = current;
+    log_rejection(what, current,
+                  std::to_string(current) + " so far (features.capacity / quadtree_groups)");
+  };
+  report(now.features_evicted, &logged_counters_.features_evicted,
+         "feature store full: less relevant feature evicted");
+  report(now.features_dropped, &logged_counters_.features_dropped,
+         "feature store full: new feature dropped");
+  report(now.shapes_truncated, &logged_counters_.shapes_truncated,
+         "quadtree pool full: box kept without shape");
 }
 
 std::vector<ObstacleBox> ReplayRun::boxes(bool include_ground) {

@@ -55,6 +55,7 @@ class ReplayRun {
   const std::vector<std::size_t>& mapped_frames() const { return mapped_frames_; }
 
  private:
+  void log_feature_store_events();
   void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
 
   ReplayOptions options_;
@@ -69,6 +70,7 @@ class ReplayRun {
   std::vector<Eigen::Vector3d> trajectory_;
   std::vector<std::size_t> mapped_frames_;
   bool finished_ = false;
+  FeatureCounters logged_counters_;
 };
 
 }  // namespace zonemap::tools

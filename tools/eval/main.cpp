@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <regex>
 #include <sstream>
 #include <string>
 
@@ -31,11 +30,11 @@ int main(int argc, char** argv) {
     std::ifstream stats(run + "/stats.json");
     std::stringstream text;
     text << stats.rdbuf();
-    std::smatch m;
     const std::string s = text.str();
-    tolerance = std::regex_search(s, m, std::regex("\"cell_size_m\": ([0-9.]+)"))
-                    ? std::atof(m[1].str().c_str())
-                    : 0.5;
+    const std::string key = "\"cell_size_m\":";
+    const auto at = s.find(key);
+    tolerance = at == std::string::npos ? 0.5 : std::atof(s.c_str() + at + key.size());
+    if (!(tolerance > 0.0)) tolerance = 0.5;
   }
   std::vector<zonemap::tools::TruthObject> objects;
   std::vector<zonemap::tools::RunBox> boxes;

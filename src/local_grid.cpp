@@ -26,20 +26,44 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
       cell_count_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
                   static_cast<std::size_t>(dims[2])),
       cells_(new LocalCell[cell_count_]),
-      line_(new std::int16_t[static_cast<std::size_t>(std::max({dims[0], dims[1], dims[2]}) +
-                                                      2 * kMaxBlurRadius)]) {
+      line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]),
+      saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]),
+      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]) {
   reset(CellIndex{});
 }
 
 std::size_t LocalGrid::reserved_bytes() const {
-  return cell_count_ * sizeof(LocalCell) +
-         static_cast<std::size_t>(std::max({dims_[0], dims_[1], dims_[2]}) + 2 * kMaxBlurRadius) *
-             sizeof(std::int16_t);
+  const std::size_t row = static_cast<std::size_t>(dims_[0]);
+  return cell_count_ * sizeof(LocalCell) + (row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
+         row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t);
 }
 
 void LocalGrid::reset(const CellIndex& origin) {
   origin_ = origin;
-  std::fill_n(cells_.get(), cell_count_, kUntouched);
+  // Only the last frame's active region holds anything but kUntouched.
+  if (cells_written_ && active_lo_[0] <= active_hi_[0] && active_lo_[1] <= active_hi_[1] &&
+      active_lo_[2] <= active_hi_[2]) {
+    const int n = active_hi_[0] - active_lo_[0] + 1;
+    for (int z = active_lo_[2]; z <= active_hi_[2]; ++z)
+      for (int y = active_lo_[1]; y <= active_hi_[1]; ++y)
+        std::fill_n(cells_.get() + index(active_lo_[0], y, z), n, kUntouched);
+  } else if (!cells_written_) {
+    std::fill_n(cells_.get(), cell_count_, kUntouched);
+  }
+  cells_written_ = true;
+  touched_lo_ = {dims_[0], dims_[1], dims_[2]};
+  touched_hi_ = {-1, -1, -1};
+  active_lo_ = touched_lo_;
+  active_hi_ = touched_hi_;
+}
+
+void LocalGrid::extend_touched(int x0, int y0, int z0, int x1, int y1, int z1) {
+  const int lo[3] = {x0, y0, z0};
+  const int hi[3] = {x1, y1, z1};
+  for (std::size_t a = 0; a < 3; ++a) {
+    touched_lo_[a] = std::min(touched_lo_[a], std::max(lo[a], 0));
+    touched_hi_[a] = std::max(touched_hi_[a], std::min(hi[a], dims_[a] - 1));
+  }
 }
 
 int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& direction,
@@ -86,6 +110,17 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
     }
   }
 
+  // The traversal is a straight segment: its first and last cells bound it.
+  {
+    int last[3];
+    for (int a = 0; a < 3; ++a) {
+      const float p = start[a] + t1 * direction[a];
+      last[a] = std::clamp(static_cast<int>(std::floor(p)), 0, dims_[a] - 1);
+    }
+    extend_touched(std::min(cell[0], last[0]), std::min(cell[1], last[1]),
+                   std::min(cell[2], last[2]), std::max(cell[0], last[0]),
+                   std::max(cell[1], last[1]), std::max(cell[2], last[2]));
+  }
   const int max_steps = dims_[0] + dims_[1] + dims_[2] + 3;
   float t = t0;
   int visited = 0;
@@ -106,44 +141,85 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
 }
 
 void LocalGrid::finish(int blur_radius) {
-  LocalCell* cells = cells_.get();
-  for (std::size_t i = 0; i < cell_count_; ++i) {
-    if (cells[i] == kUntouched) cells[i] = 0;
+  const int radius = std::clamp(blur_radius, 0, kMaxBlurRadius);
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t k = static_cast<std::size_t>(a);
+    active_lo_[k] = std::max(touched_lo_[k] - radius, 0);
+    active_hi_[k] = std::min(touched_hi_[k] + radius, dims_[a] - 1);
   }
-  if (blur_radius <= 0) return;
-  const int radius = std::min(blur_radius, kMaxBlurRadius);
-  for (int axis = 0; axis < 3; ++axis) blur_axis(axis, radius);
+  if (active_lo_[0] > active_hi_[0] || active_lo_[1] > active_hi_[1] ||
+      active_lo_[2] > active_hi_[2]) {
+    return;
+  }
+  const int n = active_hi_[0] - active_lo_[0] + 1;
+  for (int z = active_lo_[2]; z <= active_hi_[2]; ++z)
+    for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+      LocalCell* row = cells_.get() + index(active_lo_[0], y, z);
+      for (int x = 0; x < n; ++x) row[x] = row[x] == kUntouched ? LocalCell{0} : row[x];
+    }
+  if (radius == 0) return;
+  blur_x(radius);
+  blur_across(1, radius);
+  blur_across(2, radius);
 }
 
-void LocalGrid::blur_axis(int axis, int radius) {
-  const int n = dims_[axis];
-  const std::size_t stride =
-      axis == 0   ? 1
-      : axis == 1 ? static_cast<std::size_t>(dims_[0])
-                  : static_cast<std::size_t>(dims_[0]) * static_cast<std::size_t>(dims_[1]);
-  // The two axes other than `axis` enumerate the lines.
-  const int other_a = axis == 0 ? 1 : 0;
-  const int other_b = axis == 2 ? 1 : 2;
+void LocalGrid::blur_x(int radius) {
+  const int x0 = active_lo_[0];
+  const int n = active_hi_[0] - x0 + 1;
   std::int16_t* line = line_.get();
-  LocalCell* cells = cells_.get();
-  for (int b = 0; b < dims_[other_b]; ++b) {
-    for (int a = 0; a < dims_[other_a]; ++a) {
-      int coord[3] = {0, 0, 0};
-      coord[other_a] = a;
-      coord[other_b] = b;
-      LocalCell* first = cells + index(coord[0], coord[1], coord[2]);
+  for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
+    for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+      LocalCell* row = cells_.get() + index(x0, y, z);
+      // Outside the active region every cell is unknown (0): zero padding is exact.
       for (int i = 0; i < radius; ++i) {
         line[i] = 0;
         line[radius + n + i] = 0;
       }
-      for (int i = 0; i < n; ++i) line[radius + i] = first[static_cast<std::size_t>(i) * stride];
+      for (int i = 0; i < n; ++i) line[radius + i] = row[i];
       for (int i = 0; i < n; ++i) {
-        const std::int16_t* w = line + i;  // window [i, i + 2 * radius]
+        const std::int16_t* w = line + i;
         const int sum =
             radius == 1 ? w[0] + 2 * w[1] + w[2] : w[0] + 4 * w[1] + 6 * w[2] + 4 * w[3] + w[4];
-        first[static_cast<std::size_t>(i) * stride] =
-            static_cast<LocalCell>(symmetric_shift(sum, 2 * radius));
+        row[i] = static_cast<LocalCell>(symmetric_shift(sum, 2 * radius));
       }
+    }
+  }
+}
+
+void LocalGrid::blur_across(int axis, int radius) {
+  // Lines along `axis` are blurred all at once: each step combines whole x rows,
+  // so the inner loops run over contiguous cells. The originals of the rows already
+  // overwritten are kept in saved_ (a ring of 2 * radius + 1 rows).
+  const int x0 = active_lo_[0];
+  const int n = active_hi_[0] - x0 + 1;
+  const int other = axis == 1 ? 2 : 1;  // the axis enumerating independent sheets
+  const int lo = active_lo_[static_cast<std::size_t>(axis)];
+  const int hi = active_hi_[static_cast<std::size_t>(axis)];
+  static constexpr int kWeights[3][5] = {{1, 0, 0, 0, 0}, {1, 2, 1, 0, 0}, {1, 4, 6, 4, 1}};
+  const int* weight = kWeights[radius];
+  const int ring = 2 * radius + 1;
+  for (int o = active_lo_[static_cast<std::size_t>(other)];
+       o <= active_hi_[static_cast<std::size_t>(other)]; ++o) {
+    auto row_at = [&](int c) {
+      return axis == 1 ? cells_.get() + index(x0, c, o) : cells_.get() + index(x0, o, c);
+    };
+    auto saved_row = [&](int c) {
+      return saved_.get() + static_cast<std::size_t>(((c % ring) + ring) % ring) * n;
+    };
+    for (int c = lo; c <= hi; ++c) {
+      std::int16_t* sum = sum_.get();
+      std::fill_n(sum, n, std::int16_t{0});
+      for (int k = -radius; k <= radius; ++k) {
+        const int cc = c + k;
+        if (cc < lo || cc > hi) continue;  // outside the region: unknown (0)
+        const LocalCell* src = cc < c ? saved_row(cc) : row_at(cc);
+        const int w = weight[k + radius];
+        for (int x = 0; x < n; ++x) sum[x] = static_cast<std::int16_t>(sum[x] + w * src[x]);
+      }
+      LocalCell* dst = row_at(c);
+      std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
+      for (int x = 0; x < n; ++x)
+        dst[x] = static_cast<LocalCell>(symmetric_shift(sum[x], 2 * radius));
     }
   }
 }

@@ -18,6 +18,9 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
       camera_(camera),
       local_(config.zone_cells),
       zones_(config),
+      depths_(config.integration == MapConfig::Integration::kProjective ? camera.width : 1,
+              config.integration == MapConfig::Integration::kProjective ? camera.height : 1),
+      projective_(config, camera),
       occupied_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
@@ -90,6 +93,46 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   const float cy = static_cast<float>(camera_.cy);
   const bool sky_filter = config_.sky.enabled && frame.left != nullptr;
   const int step = config_.pixel_step;
+
+  if (config_.integration == MapConfig::Integration::kProjective) {
+    // Level 0 of the range table: each pixel's depth code, kFar for free-only
+    // rays, or missing. pixel_step is a reference-path option: every pixel is used.
+    std::uint16_t* base = depths_.base();
+    for (int v = 0; v < frame.height; ++v) {
+      const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
+      std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
+      for (int u = 0; u < frame.width; ++u) {
+        const std::uint16_t raw = depth_row[u];
+        std::uint16_t value = DepthRangeTable::kMissing;
+        if (raw == 0) {
+          if (sky_filter && is_sky(frame.left, u, v)) {
+            ++report.pixels_sky;
+            ++report.rays_free;
+            value = DepthRangeTable::kFar;
+          } else {
+            ++report.pixels_missing;
+          }
+        } else {
+          const float d = static_cast<float>(raw) * depth_to_m;
+          if (d < d_min) {
+            ++report.pixels_too_near;
+          } else if (d > d_max) {
+            ++report.rays_free;
+            value = DepthRangeTable::kFar;
+          } else {
+            ++report.rays_hit;
+            value = std::min(raw, DepthRangeTable::kMaxDepthCode);
+          }
+        }
+        out[u] = value;
+      }
+    }
+    depths_.build();
+    report.cells_visited = projective_.draw(depths_, world_T_camera, local_);
+    local_.finish(config_.blur_radius);
+    zones_.fuse(local_);
+    return report;
+  }
 
   for (int v = 0; v < frame.height; v += step) {
     const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;

@@ -105,8 +105,14 @@ int ZoneMap::move_environment(const CellIndex& origin) {
 }
 
 void ZoneMap::fuse(const LocalGrid& local) {
-  const CellIndex lo = local.origin();
-  const std::array<int, 3>& ld = local.dims();
+  // Only the local grid's active region holds values; the rest is untouched.
+  const CellIndex origin = local.origin();
+  const CellIndex lo{origin.x + local.active_lo()[0], origin.y + local.active_lo()[1],
+                     origin.z + local.active_lo()[2]};
+  const std::array<int, 3> ld = {local.active_hi()[0] - local.active_lo()[0] + 1,
+                                 local.active_hi()[1] - local.active_lo()[1] + 1,
+                                 local.active_hi()[2] - local.active_lo()[2] + 1};
+  if (ld[0] <= 0 || ld[1] <= 0 || ld[2] <= 0) return;
   const int lim = limit_;
   for (auto& slot : slots_) {
     if (!slot.live) continue;
@@ -122,7 +128,8 @@ void ZoneMap::fuse(const LocalGrid& local) {
     const int row = x1 - x0;
     for (int z = z0; z < z1; ++z) {
       for (int y = y0; y < y1; ++y) {
-        const LocalCell* src = local.data() + local.index(x0 - lo.x, y - lo.y, z - lo.z);
+        const LocalCell* src =
+            local.data() + local.index(x0 - origin.x, y - origin.y, z - origin.z);
         FusedCell* dst =
             zone.cells + zone.index(x0 - zone.origin.x, y - zone.origin.y, z - zone.origin.z);
         for (int x = 0; x < row; ++x) {

@@ -100,6 +100,8 @@ TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
   LocalGrid negated({20, 20, 20});
   grid.reset(CellIndex{});
   negated.reset(CellIndex{});
+  grid.extend_touched(0, 0, 0, 19, 19, 19);
+  negated.extend_touched(0, 0, 0, 19, 19, 19);
   for (int z = 0; z < dims[2]; ++z)
     for (int y = 0; y < dims[1]; ++y)
       for (int x = 0; x < dims[0]; ++x) {
@@ -127,6 +129,7 @@ TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {
   LocalGrid grid({4, 4, 4});
   grid.reset(CellIndex{});
+  grid.extend_touched(0, 0, 0, 3, 3, 3);
   grid.finish(1);
   for (int z = 0; z < 4; ++z)
     for (int y = 0; y < 4; ++y)
@@ -145,6 +148,7 @@ TEST(Fusion, AddsAndSaturatesAtTheConfiguredRange) {
   ASSERT_EQ(zones.live_zone_count(), 1);
   for (int frame = 0; frame < 100; ++frame) {
     local.reset(origin);
+    local.extend_touched(0, 0, 0, 3, 3, 3);
     local.write_max(1, 1, 1, kCellScale);
     local.write_max(2, 2, 2, -kCellScale);
     local.write_max(3, 3, 3, kCellScale / 4);

@@ -154,10 +154,11 @@ TEST(ReplayGenerated, BushesFlightMapsTheScene) {
 
 TEST(ReplayGenerated, TreeLineFlightMapsTheTrees) {
   // Ground 25-50 m away, seen 20-40 degrees down: eq. (5)'s positive half (Δd up to
-  // 3.1 m along the ray at d_max, six 0.5 m cells) lies partly above the ground, so
-  // the ground is 2-3 cells thick; 88% of the occupied cells are within one cell
-  // (printed) and the bound here is two cells.
-  auto run = replay_and_check("treeline", 2.0, 1.0, false);
+  // 3.1 m along the ray at d_max, six 0.5 m cells) lies partly above the ground, and
+  // with every pixel a ray (max-write over ~70 rays per far cell) the ground comes
+  // out 2-3 cells thick: 78% of the occupied cells are within one cell (printed),
+  // 99.3% within three; the bound here is three cells.
+  auto run = replay_and_check("treeline", 2.0, 1.5, false);
   sim::Scenario scenario;
   std::string error;
   ASSERT_TRUE(sim::make_scenario("treeline", {640, 2.0}, &scenario, &error));

@@ -96,6 +96,7 @@ TEST(ZoneMap, ReturningZoneStartsUnknown) {
   CellIndex origin = zones.environment_origin({5, 5, 2});
   zones.move_environment(origin);
   local.reset(origin);
+  local.extend_touched(5, 5, 2, 5, 5, 2);
   local.write_max(5, 5, 2, kCellScale);  // world cell (5, 5, 2)
   local.finish(0);
   zones.fuse(local);

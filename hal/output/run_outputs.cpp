@@ -134,6 +134,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"frames_rejected_time_order\": " << s.frames_rejected_time_order << ",\n"
       << "  \"poses_rejected\": " << s.poses_rejected << ",\n"
       << "  \"left_images_rejected\": " << s.left_images_rejected << ",\n"
+      << "  \"cells_visited\": " << s.cells_visited << ",\n"
       << "  \"rays_hit\": " << s.rays_hit << ",\n"
       << "  \"rays_free\": " << s.rays_free << ",\n"
       << "  \"pixels_sky\": " << s.pixels_sky << ",\n"

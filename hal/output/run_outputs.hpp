@@ -36,6 +36,7 @@ struct RunStats {
   std::int64_t frames_rejected_time_order = 0;
   std::int64_t poses_rejected = 0;
   std::int64_t left_images_rejected = 0;
+  std::int64_t cells_visited = 0;  // cells the integration evaluated, summed over frames
   std::int64_t rays_hit = 0;
   std::int64_t rays_free = 0;
   std::int64_t pixels_sky = 0;

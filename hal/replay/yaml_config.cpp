@@ -73,6 +73,17 @@ bool load_map_config(const std::string& path, MapConfig* config, std::string* er
       }
       for (int i = 0; i < 3; ++i) c.zone_cells[static_cast<std::size_t>(i)] = node[i].as<int>();
     };
+    auto integration = [&](const YAML::Node& node) {
+      const std::string mode = node.as<std::string>();
+      if (mode == "reference") {
+        c.integration = MapConfig::Integration::kReference;
+      } else if (mode == "projective") {
+        c.integration = MapConfig::Integration::kProjective;
+      } else {
+        throw ParseError{where(path, node) +
+                         ": sensor.integration must be 'reference' or 'projective'"};
+      }
+    };
     auto section = [&](const std::string& name, std::map<std::string, Reader> readers) {
       return [&path, name, readers](const YAML::Node& node) {
         read_section(path, node, name, readers);
@@ -84,7 +95,8 @@ bool load_map_config(const std::string& path, MapConfig* config, std::string* er
           section("map", {{"cell_size_m", into(&c.cell_size_m)}, {"zone_cells", zone_cells}})},
          {"sensor", section("sensor", {{"d_min_m", into(&c.d_min_m)},
                                        {"d_max_m", into(&c.d_max_m)},
-                                       {"pixel_step", into(&c.pixel_step)}})},
+                                       {"pixel_step", into(&c.pixel_step)},
+                                       {"integration", integration}})},
          {"blur", section("blur", {{"radius", into(&c.blur_radius)}})},
          {"fusion", section("fusion", {{"saturation", into(&c.saturation_units)},
                                        {"occupied_threshold", into(&c.occupied_threshold_units)},

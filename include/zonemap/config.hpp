@@ -48,7 +48,11 @@ struct MapConfig {
   std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
   double d_min_m = 8.0;
   double d_max_m = 50.0;
-  int pixel_step = 1;                     // 1 maps every pixel, as the paper does
+  int pixel_step = 1;  // 1 maps every pixel, as the paper does
+  // How a frame is drawn into the local grid: walking every pixel's ray (the
+  // reference) or visiting every frustum cell once (projective, fast).
+  enum class Integration { kReference, kProjective };
+  Integration integration = Integration::kReference;
   int blur_radius = 1;                    // binomial kernel radius (0 = no blur)
   double saturation_units = 64.0;         // |fused cell| limit, in sensor-model units
   double occupied_threshold_units = 1.5;  // fused value above which a cell is occupied

@@ -30,18 +30,30 @@ class LocalGrid {
                const RayProfile& ray);
 
   // Max-write of one fixed-point value (exposed for tests and feature re-integration).
-  void write_max(int x, int y, int z, LocalCell value) {
+  void write_max(int x, int y, int z, LocalCell value) {  // within extend_touched's region
     LocalCell& cell = cells_[index(x, y, z)];
     if (cell == kUntouched || value > cell) cell = value;
   }
 
-  // Turns untouched cells into 0 (unknown) and applies the separable binomial blur
-  // of the given radius (1: [1 2 1]/4, 2: [1 4 6 4 1]/16) along x, y and z. Values
-  // outside the grid count as unknown (0). Rounds half away from zero, so the blur
-  // is symmetric in sign.
+  // Widens the region that finish() and fusion work on to hold [lo, hi] (grid
+  // cells, clipped). Every writer says where it wrote; cells outside stay untouched.
+  void extend_touched(int x0, int y0, int z0, int x1, int y1, int z1);
+
+  // Turns untouched cells of the touched region (grown by the blur radius) into 0
+  // (unknown) and applies the separable binomial blur of the given radius (1:
+  // [1 2 1]/4, 2: [1 4 6 4 1]/16) along x, y and z there. Values outside count as
+  // unknown (0). Rounds half away from zero, so the blur is symmetric in sign.
   void finish(int blur_radius);
 
-  LocalCell at(int x, int y, int z) const { return cells_[index(x, y, z)]; }
+  // The region finish() worked on (inclusive grid cells); empty when lo > hi.
+  const std::array<int, 3>& active_lo() const { return active_lo_; }
+  const std::array<int, 3>& active_hi() const { return active_hi_; }
+
+  // A cell's value after finish(); cells no frame touched read as unknown (0).
+  LocalCell at(int x, int y, int z) const {
+    const LocalCell v = cells_[index(x, y, z)];
+    return v == kUntouched ? LocalCell{0} : v;
+  }
   const LocalCell* data() const { return cells_.get(); }
   const std::array<int, 3>& dims() const { return dims_; }
   const CellIndex& origin() const { return origin_; }
@@ -56,13 +68,21 @@ class LocalGrid {
   }
 
  private:
-  void blur_axis(int axis, int radius);
+  void blur_x(int radius);
+  void blur_across(int axis, int radius);  // y (rows) or z (planes), vectorisable over x
 
   std::array<int, 3> dims_;
   std::size_t cell_count_;
   CellIndex origin_;
   std::unique_ptr<LocalCell[]> cells_;
-  std::unique_ptr<std::int16_t[]> line_;  // one line of cells, padded by the kernel radius
+  std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
+  std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)
+  std::unique_ptr<std::int16_t[]> sum_;   // one x row of partial sums
+  std::array<int, 3> touched_lo_;
+  std::array<int, 3> touched_hi_;
+  std::array<int, 3> active_lo_;
+  std::array<int, 3> active_hi_;
+  bool cells_written_ = false;  // false until the first reset filled the whole grid
 };
 
 }  // namespace zonemap

@@ -11,7 +11,9 @@
 
 #include "zonemap/camera.hpp"
 #include "zonemap/config.hpp"
+#include "zonemap/depth_range_table.hpp"
 #include "zonemap/local_grid.hpp"
+#include "zonemap/projective_integrator.hpp"
 #include "zonemap/zone_map.hpp"
 
 namespace zonemap {
@@ -59,7 +61,9 @@ class Mapper {
   const LocalGrid& local_grid() const { return local_; }
   const MapConfig& config() const { return config_; }
   const CameraModel& camera() const { return camera_; }
-  std::size_t reserved_bytes() const { return zones_.reserved_bytes() + local_.reserved_bytes(); }
+  std::size_t reserved_bytes() const {
+    return zones_.reserved_bytes() + local_.reserved_bytes() + depths_.reserved_bytes();
+  }
 
   FusedCell occupied_threshold() const { return occupied_threshold_; }
   FusedCell free_threshold() const { return free_threshold_; }
@@ -71,6 +75,8 @@ class Mapper {
   CameraModel camera_;
   LocalGrid local_;
   ZoneMap zones_;
+  DepthRangeTable depths_;
+  ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
 };

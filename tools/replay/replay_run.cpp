@@ -156,6 +156,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     trajectory_.push_back(pose.translation());
     mapped_frames_.push_back(i);
     stats_.rays_hit += report.rays_hit;
+    stats_.cells_visited += report.cells_visited;
     stats_.rays_free += report.rays_free;
     stats_.pixels_sky += report.pixels_sky;
     stats_.pixels_missing += report.pixels_missing;

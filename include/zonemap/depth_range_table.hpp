@@ -1,0 +1,48 @@
+// Min/max depth over any image rectangle in O(1), for the projective (fast)
+// integration path: a 2-D sparse table of the depth frame (for each level l and
+// pixel, the minimum and maximum over the 2^l x 2^l square starting there). A
+// rectangle is covered by a few overlapping squares. Raw 16-bit depth values
+// keep it small; reserved once for the camera size.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+namespace zonemap {
+
+class DepthRangeTable {
+ public:
+  // Codes in the raw domain. A real depth is 1..kMaxDepthCode.
+  static constexpr std::uint16_t kFar = 0xFFFE;      // free up to d_max (sky, > d_max)
+  static constexpr std::uint16_t kMissing = 0xFFFF;  // no usable ray
+  static constexpr std::uint16_t kMaxDepthCode = 0xFFFD;
+  static constexpr int kMaxLevels = 8;  // squares up to 128 x 128 pixels
+
+  DepthRangeTable(int width, int height);
+
+  // Level 0: one code per pixel. Then build() makes the other levels.
+  std::uint16_t* base() { return min_[0]; }
+  const std::uint16_t* codes() const { return min_[0]; }
+  void build();
+
+  // Minimum and maximum code over [x0, x1] x [y0, y1] (inclusive, inside the
+  // image), missing pixels left out: lo > hi when every pixel is missing.
+  void range(int x0, int y0, int x1, int y1, std::uint16_t* lo, std::uint16_t* hi) const;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  std::size_t reserved_bytes() const { return bytes_; }
+
+ private:
+  int width_;
+  int height_;
+  int levels_;
+  std::array<std::uint16_t*, kMaxLevels> min_{};
+  std::array<std::uint16_t*, kMaxLevels> max_{};  // missing stored as 0 here
+  std::unique_ptr<std::uint16_t[]> storage_;
+  std::size_t bytes_;
+};
+
+}  // namespace zonemap

@@ -8,7 +8,7 @@ DepthRangeTable::DepthRangeTable(int width, int height) : width_(width), height_
   levels_ = 1;
   while (levels_ < kMaxLevels && (1 << levels_) <= std::max(width, height)) ++levels_;
   const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  storage_.reset(new std::uint16_t[2 * n * static_cast<std::size_t>(levels_)]);
+  storage_.reset(new std::uint16_t[2 * n * static_cast<std::size_t>(levels_)]());
   bytes_ = 2 * n * static_cast<std::size_t>(levels_) * sizeof(std::uint16_t);
   for (int l = 0; l < levels_; ++l) {
     min_[static_cast<std::size_t>(l)] = storage_.get() + 2 * n * static_cast<std::size_t>(l);

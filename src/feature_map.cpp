@@ -40,18 +40,18 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       ground_window_cells_(static_cast<int>(
           std::lround(config.features.ground_window_m / config.cell_size_m / 2.0))),
       capacity_(static_cast<std::size_t>(config.features.capacity)),
-      features_(new Feature[capacity_]),
+      features_(new Feature[capacity_]()),
       shapes_(static_cast<std::size_t>(config.features.quadtree_groups),
               std::max(config.zone_cells[0], config.zone_cells[1])),
-      visited_(new std::uint64_t[(zone_cell_count(config) + 63) / 64]),
-      component_(new std::uint32_t[zone_cell_count(config)]),
-      footprint_(new std::uint8_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
-      lowest_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
-      terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
-      column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]),
-      coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]),
-      observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]),
-      parent_(new std::uint32_t[capacity_]) {}
+      visited_(new std::uint64_t[(zone_cell_count(config) + 63) / 64]()),
+      component_(new std::uint32_t[zone_cell_count(config)]()),
+      footprint_(new std::uint8_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      lowest_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
+      observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
+      parent_(new std::uint32_t[capacity_]()) {}
 
 std::size_t FeatureMap::reserved_bytes() const {
   const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];

@@ -25,10 +25,10 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
     : dims_(dims),
       cell_count_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
                   static_cast<std::size_t>(dims[2])),
-      cells_(new LocalCell[cell_count_]),
-      line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]),
-      saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]),
-      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]) {
+      cells_(new LocalCell[cell_count_]()),
+      line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]()),
+      saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]()),
+      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]()) {
   reset(CellIndex{});
 }
 

@@ -6,13 +6,13 @@ namespace zonemap {
 
 QuadtreePool::QuadtreePool(std::size_t groups, int max_side)
     : capacity_(groups),
-      nodes_(new QuadNode[groups * 4]),
-      next_free_(new std::uint32_t[groups]),
+      nodes_(new QuadNode[groups * 4]()),
+      next_free_(new std::uint32_t[groups]()),
       free_head_(groups == 0 ? kNone : 0),
       free_count_(groups),
       max_side_(std::min(max_side, kMaxSide)),
       sums_(new std::int32_t[static_cast<std::size_t>(max_side_ + 1) *
-                             static_cast<std::size_t>(max_side_ + 1)]) {
+                             static_cast<std::size_t>(max_side_ + 1)]()) {
   for (std::size_t g = 0; g < groups; ++g) {
     next_free_[g] = g + 1 < groups ? static_cast<std::uint32_t>(g + 1) : kNone;
   }

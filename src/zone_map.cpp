@@ -12,7 +12,7 @@ ZoneMap::ZoneMap(const MapConfig& config)
       cells_per_zone_(zone_cell_count(config)),
       limit_(static_cast<FusedCell>(std::min(to_fixed(static_cast<float>(config.saturation_units)),
                                              kMaxFusedUnits * kCellScale))),
-      pool_(new FusedCell[cells_per_zone_ * kZonesHeld]) {
+      pool_(new FusedCell[cells_per_zone_ * kZonesHeld]()) {
   for (std::size_t s = 0; s < slots_.size(); ++s) {
     slots_[s].cells = pool_.get() + s * cells_per_zone_;
   }

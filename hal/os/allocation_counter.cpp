@@ -11,8 +11,10 @@ thread_local std::int64_t t_allocations = 0;
 thread_local std::int64_t t_frees = 0;
 }  // namespace
 
-void arm_allocation_counting(bool armed) {
+bool arm_allocation_counting(bool armed) {
+  const bool previous = t_armed;
   t_armed = armed;
+  return previous;
 }
 AllocationCounts thread_allocation_counts() {
   return {t_allocations, t_frees};

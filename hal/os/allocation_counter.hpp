@@ -12,15 +12,16 @@ struct AllocationCounts {
   std::int64_t frees = 0;
 };
 
-// Arms counting for the calling thread (until disarmed) and returns its counts so far.
-void arm_allocation_counting(bool armed);
+// Arms or disarms counting for the calling thread; returns the previous state.
+bool arm_allocation_counting(bool armed);
 AllocationCounts thread_allocation_counts();
 
 // Counts what happens in the calling thread during its lifetime.
 class AllocationScope {
  public:
-  AllocationScope() : before_(thread_allocation_counts()) { arm_allocation_counting(true); }
-  ~AllocationScope() { arm_allocation_counting(false); }
+  AllocationScope()
+      : before_(thread_allocation_counts()), was_armed_(arm_allocation_counting(true)) {}
+  ~AllocationScope() { arm_allocation_counting(was_armed_); }  // scopes nest
   AllocationScope(const AllocationScope&) = delete;
   AllocationScope& operator=(const AllocationScope&) = delete;
   AllocationCounts counted() const {
@@ -30,6 +31,7 @@ class AllocationScope {
 
  private:
   AllocationCounts before_;
+  bool was_armed_;
 };
 
 }  // namespace zonemap::os

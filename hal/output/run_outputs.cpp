@@ -155,6 +155,19 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"cells_reintegrated\": " << s.feature_counters.cells_reintegrated << "},\n"
       << "  \"extract_ms\": {\"p50\": " << s.extract_ms_p50 << ", \"max\": " << s.extract_ms_max
       << "},\n"
+      << "  \"pipeline\": " << (s.pipeline ? "true" : "false") << ",\n"
+      << "  \"drops\": {\"mapper_behind\": " << s.dropped_mapper_behind
+      << ", \"pool_full\": " << s.dropped_pool_full
+      << ", \"outputs_skipped\": " << s.outputs_skipped << "},\n"
+      << "  \"pose_waits\": " << s.pose_waits << ",\n"
+      << "  \"outputs_published\": " << s.outputs_published << ",\n"
+      << "  \"deadline_misses\": " << s.deadline_misses << ",\n"
+      << "  \"end_to_end_ms\": {\"p50\": " << s.end_to_end_ms_p50
+      << ", \"p99\": " << s.end_to_end_ms_p99 << ", \"p99.9\": " << s.end_to_end_ms_p999
+      << ", \"max\": " << s.end_to_end_ms_max << "},\n"
+      << "  \"queue_ms_p99\": " << s.queue_ms_p99 << ",\n"
+      << "  \"rss_bytes\": {\"after_start\": " << s.rss_after_start
+      << ", \"at_end\": " << s.rss_at_end << "},\n"
       << "  \"memory_bytes\": {\"zone_pool\": " << s.zone_pool_bytes
       << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
       << "}\n"

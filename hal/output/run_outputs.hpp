@@ -52,6 +52,18 @@ struct RunStats {
   FeatureCounters feature_counters;
   double extract_ms_p50 = 0.0;
   double extract_ms_max = 0.0;
+  // The threaded pipeline (zonemap-replay --pipeline).
+  bool pipeline = false;
+  std::int64_t dropped_mapper_behind = 0;
+  std::int64_t dropped_pool_full = 0;
+  std::int64_t pose_waits = 0;
+  std::int64_t outputs_published = 0;
+  std::int64_t outputs_skipped = 0;
+  std::int64_t deadline_misses = 0;
+  double end_to_end_ms_p50 = 0.0, end_to_end_ms_p99 = 0.0, end_to_end_ms_p999 = 0.0;
+  double end_to_end_ms_max = 0.0;
+  double queue_ms_p99 = 0.0;
+  long rss_after_start = 0, rss_at_end = 0;
 };
 
 // boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -28,6 +29,7 @@ class PoseTrack {
       : max_gap_s_(max_gap_s), tolerance_s_(tolerance_s) {}
 
   void reserve(std::size_t n) { samples_.reserve(n); }
+  void clear() { samples_.clear(); }  // keeps the reserved storage
   // Samples must come with strictly increasing times and unit quaternions; a
   // sample that does not is refused (returns false) so the caller can count it.
   bool append(const PoseSample& sample);

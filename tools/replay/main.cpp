@@ -2,12 +2,15 @@
 // Maps a recorded or generated flight and writes DIR/stats.json, DIR/height.png
 // and DIR/occupied.ply.
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "tools/replay/replay_run.hpp"
 
 int main(int argc, char** argv) {
   zonemap::tools::ReplayOptions options;
+  zonemap::runtime::PipelineOptions pipeline;
+  bool pipelined = false;
   std::string out_dir;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -28,6 +31,22 @@ int main(int argc, char** argv) {
       ok = value(&options.camera_path);
     } else if (arg == "--quiet") {
       options.quiet = true;
+    } else if (arg == "--pipeline") {
+      pipelined = true;
+    } else if (arg == "--live") {
+      pipelined = true;
+      pipeline.lossless = false;
+    } else if (arg == "--rate") {
+      std::string rate;
+      ok = value(&rate);
+      pipelined = true;
+      pipeline.source_rate_hz = std::atof(rate.c_str());
+      if (!(pipeline.source_rate_hz > 0.0)) {
+        std::fprintf(stderr, "zonemap-replay: --rate needs a frame rate > 0\n");
+        ok = false;
+      }
+    } else if (arg == "--mlock") {
+      pipeline.lock_memory = true;
     } else if (!arg.empty() && arg[0] != '-' && options.sequence_dir.empty()) {
       options.sequence_dir = arg;
     } else {
@@ -49,20 +68,25 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return 1;
   }
-  run.run();
+  if (pipelined) {
+    run.run_pipelined(pipeline);
+  } else {
+    run.run();
+  }
   if (!run.write_outputs(out_dir, &error)) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return 1;
   }
   const auto& s = run.stats();
   std::printf(
-      "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld; frame ms p50 %.2f p99 "
-      "%.2f "
+      "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld, dropped %lld; frame ms "
+      "p50 %.2f p99 %.2f "
       "max %.2f; zones allocated %lld; reserved %.1f MiB; heap allocations after init %lld\n"
       "outputs: %s/stats.json %s/height.png %s/occupied.ply\n",
       static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
       static_cast<long long>(s.frames_skipped_no_pose), static_cast<long long>(s.frames_rejected),
-      s.frame_ms_p50, s.frame_ms_p99, s.frame_ms_max, static_cast<long long>(s.zones_allocated),
+      static_cast<long long>(s.dropped_mapper_behind + s.dropped_pool_full), s.frame_ms_p50,
+      s.frame_ms_p99, s.frame_ms_max, static_cast<long long>(s.zones_allocated),
       static_cast<double>(s.static_memory_bytes) / 1048576.0,
       static_cast<long long>(s.heap_allocations_after_init), out_dir.c_str(), out_dir.c_str(),
       out_dir.c_str());

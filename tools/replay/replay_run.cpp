@@ -149,18 +149,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
                     sequence_.entry(i).path);
       continue;
     }
-    ++stats_.frames_mapped;
-    frame_ms_.push_back(ms);
-    log_feature_store_events();
-    if (stats_.frames_mapped % config_.features.extract_every_frames == 0) extract_live_zones();
-    trajectory_.push_back(pose.translation());
-    mapped_frames_.push_back(i);
-    stats_.rays_hit += report.rays_hit;
-    stats_.cells_visited += report.cells_visited;
-    stats_.rays_free += report.rays_free;
-    stats_.pixels_sky += report.pixels_sky;
-    stats_.pixels_missing += report.pixels_missing;
-    stats_.pixels_too_near += report.pixels_too_near;
+    account_mapped_frame(i, pose, report, ms);
     const auto now = std::chrono::steady_clock::now();
     if (show_progress && (now - last_progress > std::chrono::milliseconds(250) || i + 1 == n)) {
       last_progress = now;
@@ -169,6 +158,63 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     }
   }
   if (show_progress) std::fprintf(stderr, "\n");
+}
+
+void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                                     const FrameReport& report, double mapping_ms) {
+  // Everything here writes into storage reserved at open(): it runs on the
+  // pipeline's mapping thread too.
+  ++stats_.frames_mapped;
+  frame_ms_.push_back(mapping_ms);
+  if (stats_.frames_mapped % config_.features.extract_every_frames == 0) extract_live_zones();
+  if (!in_pipeline_) log_feature_store_events();
+  trajectory_.push_back(pose.translation());
+  mapped_frames_.push_back(frame_index);
+  stats_.rays_hit += report.rays_hit;
+  stats_.cells_visited += report.cells_visited;
+  stats_.rays_free += report.rays_free;
+  stats_.pixels_sky += report.pixels_sky;
+  stats_.pixels_missing += report.pixels_missing;
+  stats_.pixels_too_near += report.pixels_too_near;
+}
+
+void ReplayRun::after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                            const FrameReport& report, double mapping_ms) {
+  account_mapped_frame(frame_index, pose, report, mapping_ms);
+}
+
+void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
+  in_pipeline_ = true;
+  runtime::Pipeline pipeline(sequence_, *mapper_, *features_, *this, options);
+  stats_.static_memory_bytes += pipeline.reserved_bytes();
+  pipeline.run();
+  in_pipeline_ = false;
+  pipeline_stats_ = pipeline.stats();
+  const runtime::PipelineStats& p = pipeline_stats_;
+  stats_.frames_in += p.frames_in;
+  stats_.frames_rejected += p.frames_rejected;
+  stats_.frames_skipped_no_pose += p.frames_skipped_no_pose;
+  stats_.heap_allocations_after_init += p.mapping_thread_allocations + p.output_thread_allocations;
+  stats_.heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees;
+  stats_.pipeline = true;
+  stats_.dropped_mapper_behind = p.dropped_mapper_behind;
+  stats_.dropped_pool_full = p.dropped_pool_full;
+  stats_.pose_waits = p.pose_waits;
+  stats_.outputs_published = p.outputs_published;
+  stats_.outputs_skipped = p.outputs_skipped;
+  stats_.deadline_misses = p.deadline_misses;
+  stats_.end_to_end_ms_p50 = p.end_to_end.percentile(0.50);
+  stats_.end_to_end_ms_p99 = p.end_to_end.percentile(0.99);
+  stats_.end_to_end_ms_p999 = p.end_to_end.percentile(0.999);
+  stats_.end_to_end_ms_max = p.end_to_end.max_ms();
+  stats_.queue_ms_p99 = p.acquire_to_map_start.percentile(0.99);
+  stats_.rss_after_start = p.rss_after_start;
+  stats_.rss_at_end = p.rss_at_end;
+  if (!options_.quiet) {
+    for (const auto& w : p.warnings) std::fprintf(stderr, "zonemap-replay: %s\n", w.c_str());
+  }
+  log_feature_store_events();
+  finish();
 }
 
 void ReplayRun::finish() {

@@ -9,6 +9,7 @@
 
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/sequence.hpp"
+#include "hal/runtime/pipeline.hpp"
 #include "zonemap/mapper.hpp"
 
 namespace zonemap::tools {
@@ -21,7 +22,7 @@ struct ReplayOptions {
   bool quiet = false;       // no start-up report or rejection log
 };
 
-class ReplayRun {
+class ReplayRun : private runtime::MappingHooks {
  public:
   // Loads and checks everything and reserves all memory. False with a message
   // naming the file (and line) when an input is unusable.
@@ -35,6 +36,11 @@ class ReplayRun {
   // finish() extracts the live zones and completes the statistics.
   void run_frames(std::size_t first, std::size_t last);
   void finish();
+  // The same job through the threaded runtime (acquisition, mapping, output
+  // threads); then finish() as usual. Pipeline figures go to stats() and to
+  // pipeline_stats().
+  void run_pipelined(const runtime::PipelineOptions& options);
+  const runtime::PipelineStats& pipeline_stats() const { return pipeline_stats_; }
   // Extracts the features of every zone holding a grid now (also done every
   // features.extract_every_frames frames and at finish()).
   void extract_live_zones();
@@ -56,6 +62,10 @@ class ReplayRun {
 
  private:
   void log_feature_store_events();
+  void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                   const FrameReport& report, double mapping_ms) override;
+  void account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                            const FrameReport& report, double mapping_ms);
   void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
 
   ReplayOptions options_;
@@ -71,6 +81,8 @@ class ReplayRun {
   std::vector<std::size_t> mapped_frames_;
   bool finished_ = false;
   FeatureCounters logged_counters_;
+  bool in_pipeline_ = false;  // on the mapping thread: count, do not print
+  runtime::PipelineStats pipeline_stats_;
 };
 
 }  // namespace zonemap::tools

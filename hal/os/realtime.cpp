@@ -1,0 +1,56 @@
+#include "hal/os/realtime.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+namespace zonemap::os {
+
+bool lock_memory(std::string* warning) {
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) return true;
+  *warning = std::string("mlockall failed (") + std::strerror(errno) +
+             "): memory may be paged out; run with CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK";
+  return false;
+}
+
+bool set_thread_realtime(int priority, int cpu, std::string* warning) {
+  bool ok = true;
+  if (priority > 0) {
+    sched_param param{};
+    param.sched_priority = priority;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+    if (rc != 0) {
+      *warning = std::string("SCHED_FIFO ") + std::to_string(priority) + " refused (" +
+                 std::strerror(rc) + "): running with normal scheduling";
+      ok = false;
+    }
+  }
+  if (cpu >= 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<unsigned>(cpu), &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    if (rc != 0) {
+      *warning += std::string(ok ? "" : "; ") + "CPU " + std::to_string(cpu) +
+                  " affinity refused (" + std::strerror(rc) + ")";
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+long resident_bytes() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (f == nullptr) return 0;
+  long pages_total = 0, pages_resident = 0;
+  const int n = std::fscanf(f, "%ld %ld", &pages_total, &pages_resident);
+  std::fclose(f);
+  return n == 2 ? pages_resident * sysconf(_SC_PAGESIZE) : 0;
+}
+
+}  // namespace zonemap::os

@@ -1,0 +1,88 @@
+// The onboard runtime around the single-threaded mapping core: acquisition,
+// mapping (+ feature map) and output stages, each its own thread, joined by
+// fixed-capacity lock-free SPSC queues. Frames live in a pool reserved at start-up
+// and travel through the queues by index; poses reach the mapper through a
+// lock-free PoseBuffer. The mapping and output threads count their heap
+// allocations from their first loop on (they must stay at zero).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hal/replay/sequence.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/latency_histogram.hpp"
+#include "zonemap/mapper.hpp"
+
+namespace zonemap::runtime {
+
+struct PipelineOptions {
+  // Lossless: the source waits for a free frame slot, every frame is mapped (replay,
+  // determinism). Otherwise newest wins: a mapper that falls behind skips to the
+  // newest waiting frame; the skipped ones are dropped and counted.
+  bool lossless = true;
+  double source_rate_hz = 0.0;         // 0: as fast as the source can; else paced like a camera
+  double frame_period_s = 1.0 / 30.0;  // deadline for end-to-end latency
+  double pose_wait_s = 0.05;           // how long a frame waits for a late pose
+  int publish_every_frames = 3;        // merged boxes to the output stage
+  bool lock_memory = false;
+  int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;  // SCHED_FIFO, 0 = off
+  int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;              // -1 = any
+};
+
+struct PipelineStats {
+  std::int64_t frames_in = 0;
+  std::int64_t frames_mapped = 0;
+  std::int64_t frames_rejected = 0;         // unreadable, bad pose
+  std::int64_t frames_skipped_no_pose = 0;  // no pose within tolerance after waiting
+  std::int64_t dropped_mapper_behind = 0;   // newest wins: older waiting frames dropped
+  std::int64_t dropped_pool_full = 0;       // no free frame slot: the new frame dropped
+  std::int64_t pose_waits = 0;              // frames that had to wait for their pose
+  std::int64_t outputs_published = 0;
+  std::int64_t outputs_skipped = 0;  // the output stage still held every buffer
+  std::int64_t deadline_misses = 0;  // end-to-end latency over the frame period
+  std::int64_t mapping_thread_allocations = 0, mapping_thread_frees = 0;
+  std::int64_t output_thread_allocations = 0, output_thread_frees = 0;
+  LatencyHistogram acquire_to_map_start;  // queueing
+  LatencyHistogram mapping;               // the mapping step (+ extraction when due)
+  LatencyHistogram end_to_end;            // acquisition done -> boxes out
+  std::vector<std::string> warnings;      // real-time set-up refused, etc.
+  long rss_after_start = 0, rss_at_end = 0;
+};
+
+// Hooks into the replay job, called on the mapping thread (must not allocate).
+class MappingHooks {
+ public:
+  virtual ~MappingHooks() = default;
+  // After each mapped frame: periodic extraction, trajectory, etc.
+  virtual void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                           const FrameReport& report, double mapping_ms) = 0;
+};
+
+class Pipeline {
+ public:
+  static constexpr int kFrameSlots = 8;
+  static constexpr int kOutputSlots = 3;
+
+  Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
+           MappingHooks& hooks, const PipelineOptions& options);
+  ~Pipeline();
+
+  // Runs the whole sequence through the three threads and joins them.
+  void run();
+  const PipelineStats& stats() const { return stats_; }
+  // Frames the acquisition stage has dealt with so far, handed on or dropped
+  // (any thread may read).
+  std::int64_t frames_offered() const;
+  std::size_t reserved_bytes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  PipelineStats stats_;
+};
+
+}  // namespace zonemap::runtime

@@ -1,0 +1,87 @@
+// Recent INS poses, written by one thread (the pose source) and read by another
+// (the mapper) without locks: a ring of samples, each guarded by a sequence
+// number (odd while being written). A reader that races the writer on a slot sees
+// the sequence change and retries that slot, a bounded number of times (then
+// leaves that one sample out).
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Geometry>
+
+#include "zonemap/pose_track.hpp"
+
+namespace zonemap {
+
+template <std::size_t Capacity>
+class PoseBuffer {
+  static_assert(Capacity >= 4, "room for interpolation");
+
+ public:
+  // Writer thread only. Samples must come in increasing time (the caller checks).
+  void push(const PoseSample& sample) {
+    const std::uint64_t n = count_.load(std::memory_order_relaxed);
+    Slot& slot = slots_[n % Capacity];
+    // Sequentially consistent throughout (no fences, which ThreadSanitizer cannot
+    // follow): a reader that sees the same even sequence before and after its
+    // copy saw no store of this write in between. Poses come at ~100 Hz: cheap.
+    const std::uint32_t seq = slot.seq.load();
+    slot.seq.store(seq + 1);  // odd: being written
+    store(slot, sample);
+    slot.seq.store(seq + 2);  // even: complete
+    count_.store(n + 1, std::memory_order_release);
+  }
+
+  // Reader thread. Copies the newest samples (oldest first) into `track` (which
+  // must have room, see PoseTrack::reserve) so that it can interpolate; returns
+  // the time of the newest sample, or -inf when there is none.
+  double snapshot(PoseTrack* track) const {
+    track->clear();
+    const std::uint64_t n = count_.load(std::memory_order_acquire);
+    const std::uint64_t first = n > Capacity - 1 ? n - (Capacity - 1) : 0;  // one slot of slack
+    double newest = -std::numeric_limits<double>::infinity();
+    for (std::uint64_t i = first; i < n; ++i) {
+      PoseSample sample;
+      if (!read(slots_[i % Capacity], &sample)) continue;  // overwritten meanwhile: skip it
+      if (track->append(sample)) newest = sample.time_s;
+    }
+    return newest;
+  }
+
+  std::uint64_t count() const { return count_.load(std::memory_order_acquire); }
+
+ private:
+  // Samples are stored as atomics, so a racing read is not a data race; the
+  // sequence number tells whether the copy is consistent.
+  struct Slot {
+    std::atomic<std::uint32_t> seq{0};
+    std::array<std::atomic<double>, 8> values{};
+  };
+  static void store(Slot& slot, const PoseSample& s) {
+    const double v[8] = {s.time_s,       s.position.x(), s.position.y(), s.position.z(),
+                         s.attitude.x(), s.attitude.y(), s.attitude.z(), s.attitude.w()};
+    for (std::size_t k = 0; k < 8; ++k) slot.values[k].store(v[k]);
+  }
+  static bool read(const Slot& slot, PoseSample* out) {
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      const std::uint32_t before = slot.seq.load();
+      if (before & 1u) continue;
+      double v[8];
+      for (std::size_t k = 0; k < 8; ++k) v[k] = slot.values[k].load();
+      if (slot.seq.load() != before) continue;
+      out->time_s = v[0];
+      out->position = Eigen::Vector3d(v[1], v[2], v[3]);
+      out->attitude = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
+      return true;
+    }
+    return false;
+  }
+
+  std::array<Slot, Capacity> slots_{};
+  std::atomic<std::uint64_t> count_{0};
+};
+
+}  // namespace zonemap

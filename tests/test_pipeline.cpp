@@ -1,0 +1,240 @@
+// The threaded runtime: lock-free queues under stress, the pose buffer under a
+// racing writer, the pipeline's determinism, static memory and overload policy.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "hal/replay/yaml_config.hpp"
+#include "hal/runtime/pipeline.hpp"
+#include "test_support.hpp"
+#include "tools/replay/replay_run.hpp"
+#include "tools/sim/scene.hpp"
+#include "zonemap/pose_buffer.hpp"
+#include "zonemap/spsc_queue.hpp"
+
+namespace zonemap {
+namespace {
+
+// A random amount of busy work (not a sleep): shakes the interleavings.
+void jitter(sim::Rng& rng, int max_spins) {
+  const int spins = static_cast<int>(rng.uniform() * max_spins);
+  std::atomic<int> sink{0};
+  for (int i = 0; i < spins; ++i) sink.fetch_add(1, std::memory_order_relaxed);
+}
+
+TEST(SpscQueue, FifoFullAndEmptyInOneThread) {
+  SpscQueue<std::uint32_t, 4> q;
+  std::uint32_t v = 0;
+  EXPECT_FALSE(q.pop(&v));
+  for (std::uint32_t i = 0; i < 4; ++i) EXPECT_TRUE(q.push(i));
+  EXPECT_FALSE(q.push(99)) << "full";
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    ASSERT_TRUE(q.pop(&v));
+    EXPECT_EQ(v, i);
+  }
+  EXPECT_FALSE(q.pop(&v));
+  // Wrap around many times.
+  for (std::uint32_t i = 0; i < 1000; ++i) {
+    ASSERT_TRUE(q.push(i));
+    ASSERT_TRUE(q.pop(&v));
+    ASSERT_EQ(v, i);
+  }
+}
+
+TEST(SpscQueue, StressKeepsOrderAndLosesNothing) {
+  constexpr std::uint64_t kItems = 200000;
+  SpscQueue<std::uint64_t, 64> q;
+  std::uint64_t full_retries = 0;
+  std::thread producer([&] {
+    sim::Rng rng(1);
+    for (std::uint64_t i = 1; i <= kItems; ++i) {
+      while (!q.push(i)) ++full_retries;
+      if ((i & 255) == 0) jitter(rng, 2000);
+    }
+  });
+  sim::Rng rng(2);
+  std::uint64_t expected = 1, v = 0;
+  while (expected <= kItems) {
+    if (!q.pop(&v)) continue;
+    ASSERT_EQ(v, expected) << "order";
+    ++expected;
+    if ((expected & 127) == 0) jitter(rng, 4000);
+  }
+  producer.join();
+  EXPECT_FALSE(q.pop(&v)) << "nothing extra";
+  std::printf("[ spsc ] %llu items, producer found it full %llu times\n",
+              static_cast<unsigned long long>(kItems),
+              static_cast<unsigned long long>(full_retries));
+}
+
+TEST(PoseBuffer, ReaderAlwaysSeesConsistentSamples) {
+  PoseBuffer<16> buffer;
+  constexpr int kSamples = 100000;
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    for (int i = 1; i <= kSamples; ++i) {
+      const double t = i * 0.01;
+      // Every field derived from t: a torn read would mix two samples.
+      buffer.push(
+          {t, Eigen::Vector3d(t, 2 * t, 3 * t),
+           Eigen::Quaterniond(Eigen::AngleAxisd(std::fmod(t, 3.0), Eigen::Vector3d::UnitZ()))});
+    }
+    done.store(true, std::memory_order_release);
+  });
+  PoseTrack track(1.0, 0.1);
+  track.reserve(16);
+  std::int64_t snapshots = 0;
+  double last_newest = -1.0;
+  while (!done.load(std::memory_order_acquire) || snapshots < 10) {
+    const double newest = buffer.snapshot(&track);
+    ++snapshots;
+    for (const PoseSample& s : track.samples()) {
+      ASSERT_DOUBLE_EQ(s.position.x(), s.time_s);
+      ASSERT_DOUBLE_EQ(s.position.z(), 3 * s.time_s);
+      ASSERT_NEAR(Eigen::AngleAxisd(s.attitude).angle(), std::fmod(s.time_s, 3.0), 1e-9);
+    }
+    if (track.size() > 0) {
+      ASSERT_GE(newest, last_newest) << "time never goes back";
+      last_newest = newest;
+    }
+  }
+  writer.join();
+  EXPECT_EQ(buffer.count(), static_cast<std::uint64_t>(kSamples));
+  buffer.snapshot(&track);
+  EXPECT_EQ(track.size(), 15u) << "capacity minus one slot of slack";
+  EXPECT_DOUBLE_EQ(track.samples().back().time_s, kSamples * 0.01);
+}
+
+std::string test_sequence(const testing::TempDir& dir, const std::string& name, double rate,
+                          std::size_t frames) {
+  return testing::write_test_scenario(name, dir / "seq", rate, 4, frames);
+}
+
+TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
+  testing::TempDir dir;
+  const std::string config = test_sequence(dir, "posts-through", 4.0, 40);
+  ASSERT_FALSE(config.empty());
+  tools::ReplayOptions options{dir / "seq", config, "", false, true};
+  std::string error;
+  tools::ReplayRun single;
+  ASSERT_TRUE(single.open(options, &error)) << error;
+  single.run();
+  tools::ReplayRun threaded;
+  ASSERT_TRUE(threaded.open(options, &error)) << error;
+  runtime::PipelineOptions pipeline;  // lossless
+  threaded.run_pipelined(pipeline);
+  EXPECT_EQ(threaded.stats().frames_mapped, single.stats().frames_mapped);
+  EXPECT_EQ(threaded.stats().frames_mapped, 40);
+  // The same map, cell for cell, and the same boxes.
+  std::int64_t cells = 0, different = 0;
+  single.mapper().zones().for_each_live_zone([&](ZoneView& zone) {
+    for (int z = 0; z < zone.dims[2]; ++z)
+      for (int y = 0; y < zone.dims[1]; ++y)
+        for (int x = 0; x < zone.dims[0]; ++x) {
+          FusedCell other = 0;
+          ASSERT_TRUE(threaded.mapper().zones().value_at(
+              {zone.origin.x + x, zone.origin.y + y, zone.origin.z + z}, &other));
+          ++cells;
+          different += other != zone.cells[zone.index(x, y, z)];
+        }
+  });
+  EXPECT_GT(cells, 0);
+  EXPECT_EQ(different, 0);
+  ASSERT_TRUE(single.write_outputs(dir / "single", &error)) << error;
+  ASSERT_TRUE(threaded.write_outputs(dir / "threaded", &error)) << error;
+  std::ifstream a(dir / "single/boxes.csv"), b(dir / "threaded/boxes.csv");
+  std::stringstream sa, sb;
+  sa << a.rdbuf();
+  sb << b.rdbuf();
+  const std::string single_boxes = sa.str();
+  EXPECT_EQ(single_boxes, sb.str());
+  EXPECT_GE(std::count(single_boxes.begin(), single_boxes.end(), '\n'), 3)
+      << "header, two posts, ground";
+}
+
+TEST(Pipeline, NoAllocationInTheMappingAndOutputThreads) {
+  testing::TempDir dir;
+  const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);  // zones come and go
+  tools::ReplayOptions options{dir / "seq", config, "", false, true};
+  std::string error;
+  tools::ReplayRun run;
+  ASSERT_TRUE(run.open(options, &error)) << error;
+  runtime::PipelineOptions pipeline;
+  pipeline.publish_every_frames = 1;
+  run.run_pipelined(pipeline);
+  const runtime::PipelineStats& p = run.pipeline_stats();
+  std::printf(
+      "[ pipeline ] %lld frames mapped, %lld outputs, zones allocated %lld; mapping thread "
+      "%lld allocations / %lld frees, output thread %lld / %lld; RSS %ld -> %ld bytes\n",
+      static_cast<long long>(p.frames_mapped), static_cast<long long>(p.outputs_published),
+      static_cast<long long>(run.stats().zones_allocated),
+      static_cast<long long>(p.mapping_thread_allocations),
+      static_cast<long long>(p.mapping_thread_frees),
+      static_cast<long long>(p.output_thread_allocations),
+      static_cast<long long>(p.output_thread_frees), p.rss_after_start, p.rss_at_end);
+  EXPECT_GT(p.frames_mapped, 50);
+  EXPECT_GT(run.stats().zones_allocated, 8);
+  EXPECT_EQ(p.outputs_published, p.frames_mapped);
+  EXPECT_EQ(p.mapping_thread_allocations, 0);
+  EXPECT_EQ(p.mapping_thread_frees, 0);
+  EXPECT_EQ(p.output_thread_allocations, 0);
+  EXPECT_EQ(p.output_thread_frees, 0);
+  EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
+}
+
+// A mapper slower than the source, made so deterministically: each mapped frame
+// waits until the source has dealt with three more frames (state, not time).
+class SlowMapper : public runtime::MappingHooks {
+ public:
+  const runtime::Pipeline* pipeline = nullptr;
+  std::int64_t total = 0;
+  void after_frame(std::size_t frame_index, const Eigen::Isometry3d&, const FrameReport&,
+                   double) override {
+    const std::int64_t want =
+        std::min<std::int64_t>(static_cast<std::int64_t>(frame_index) + 4, total);
+    while (pipeline->frames_offered() < want) std::this_thread::yield();
+  }
+};
+
+TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
+  testing::TempDir dir;
+  const std::string config_path = test_sequence(dir, "posts-through", 4.0, 60);
+  MapConfig config;
+  std::string error;
+  hal::ReplaySequence sequence;
+  ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
+  ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
+  Mapper mapper(config, sequence.camera());
+  FeatureMap features(config, true);
+  mapper.zones().add_observer(&features);
+  SlowMapper hooks;
+  hooks.total = static_cast<std::int64_t>(sequence.frame_count());
+  runtime::PipelineOptions options;
+  options.lossless = false;  // newest wins
+  runtime::Pipeline pipeline(sequence, mapper, features, hooks, options);
+  hooks.pipeline = &pipeline;
+  pipeline.run();
+  const runtime::PipelineStats& s = pipeline.stats();
+  std::printf(
+      "[ overload ] in %lld, mapped %lld, dropped (mapper behind) %lld, (pool full) %lld; "
+      "end-to-end p99 %.1f ms\n",
+      static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
+      static_cast<long long>(s.dropped_mapper_behind), static_cast<long long>(s.dropped_pool_full),
+      s.end_to_end.percentile(0.99));
+  EXPECT_EQ(s.frames_in, static_cast<std::int64_t>(sequence.frame_count()));
+  // Which reason drops depends on how much slower the mapper is (under a sanitizer
+  // the pool fills); some frames are dropped and each is counted.
+  EXPECT_GT(s.dropped_mapper_behind + s.dropped_pool_full, 0);
+  EXPECT_EQ(s.frames_in, s.frames_mapped + s.frames_rejected + s.frames_skipped_no_pose +
+                             s.dropped_mapper_behind + s.dropped_pool_full)
+      << "every frame accounted for";
+  EXPECT_GE(s.frames_mapped, 1);
+  EXPECT_EQ(s.mapping_thread_allocations, 0);
+}
+
+}  // namespace
+}  // namespace zonemap

@@ -10,6 +10,7 @@ zonemap_install() {
   local missing=()
   local pkg
   for pkg in "${ZONEMAP_PACKAGES[@]}" "$@"; do
+    # An :arch suffix names a foreign-architecture package; dpkg-query takes it as is.
     if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed'; then
       missing+=("$pkg")
     fi
@@ -21,6 +22,31 @@ zonemap_install() {
   "${sudo[@]}" apt-get update -qq >/dev/null
   DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends \
     "${missing[@]}" >/dev/null
+}
+
+# The aarch64 cross toolchain and :arm64 libraries (multiarch), for tools/test --cross aarch64.
+zonemap_install_cross_aarch64() {
+  local sudo=()
+  [ "$(id -u)" -eq 0 ] || sudo=(sudo)
+  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+    echo "zonemap: adding the arm64 architecture" >&2
+    "${sudo[@]}" dpkg --add-architecture arm64
+    "${sudo[@]}" apt-get update -qq >/dev/null
+  fi
+  zonemap_install g++-aarch64-linux-gnu qemu-user-static libgtest-dev:arm64 libpng-dev:arm64 \
+    zlib1g-dev:arm64 libyaml-cpp0.7:arm64
+  # libyaml-cpp-dev is not Multi-Arch: installing its :arm64 package would remove the
+  # native one. Unpack it into a project-owned sysroot instead (the toolchain file
+  # adds it to CMAKE_FIND_ROOT_PATH).
+  local sysroot="$ZONEMAP_ROOT/build/sysroot-arm64"
+  if [ ! -f "$sysroot/usr/include/yaml-cpp/yaml.h" ]; then
+    local tmp
+    tmp="$(mktemp -d)"
+    (cd "$tmp" && apt-get download -qq libyaml-cpp-dev:arm64 libyaml-cpp0.7:arm64 >/dev/null) || return 1
+    mkdir -p "$sysroot"
+    for deb in "$tmp"/*.deb; do dpkg-deb -x "$deb" "$sysroot"; done
+    rm -rf "$tmp"
+  fi
 }
 
 # Configures and builds one preset (release by default) quietly unless it fails.

@@ -2,6 +2,7 @@
 // a grid, buffers come from the pool reserved at start-up.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -153,12 +154,19 @@ TEST(Mapper, NoHeapAllocationAfterInit) {
 }
 
 TEST(Mapper, CountingReallyCountsAllocations) {
-  // Guards the proof above: an allocation in a counted scope is seen.
+  // Guards the proof above: allocations in a counted scope are seen, C++ and C.
   os::AllocationScope scope;
   auto* p = new std::vector<int>(100);
   delete p;
   EXPECT_GE(scope.counted().allocations, 2);
   EXPECT_GE(scope.counted().frees, 2);
+  const os::AllocationCounts before = scope.counted();
+  void* volatile c = std::malloc(64);
+  std::free(c);
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  EXPECT_EQ(scope.counted().allocations, before.allocations + 1) << "malloc is counted";
+  EXPECT_EQ(scope.counted().frees, before.frees + 1);
+#endif
 }
 
 TEST(Mapper, RejectsNonFinitePoseAndLeavesTheMapAlone) {

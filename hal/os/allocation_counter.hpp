@@ -1,6 +1,9 @@
 // Counts heap allocations made by the calling thread while counting is armed,
-// through a replacement of the global operator new/delete. Linked (as an object
-// library) into the executables that must prove "no allocation after init".
+// through replacements of the global operator new/delete and of malloc, calloc,
+// realloc, free and the aligned allocators (forwarded to glibc's __libc_*; under
+// a sanitizer, which owns malloc, operator new/delete count instead). Linked (as
+// an object library) into the executables that must prove "no allocation after
+// init".
 #pragma once
 
 #include <cstdint>
@@ -15,6 +18,8 @@ struct AllocationCounts {
 // Arms or disarms counting for the calling thread; returns the previous state.
 bool arm_allocation_counting(bool armed);
 AllocationCounts thread_allocation_counts();
+void count_c_allocation();
+void count_c_free();
 
 // Counts what happens in the calling thread during its lifetime.
 class AllocationScope {

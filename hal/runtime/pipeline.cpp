@@ -31,6 +31,21 @@ void push_waiting(Queue& queue, const T& item) {
 
 }  // namespace
 
+PipelineOptions PipelineOptions::from(const RuntimeConfig& runtime) {
+  PipelineOptions o;
+  o.frame_period_s = runtime.frame_period_s;
+  o.pose_wait_s = runtime.pose_wait_s;
+  o.publish_every_frames = runtime.publish_every_frames;
+  o.lock_memory = runtime.lock_memory;
+  o.priority_acquisition = runtime.priority_acquisition;
+  o.priority_mapping = runtime.priority_mapping;
+  o.priority_output = runtime.priority_output;
+  o.cpu_acquisition = runtime.cpu_acquisition;
+  o.cpu_mapping = runtime.cpu_mapping;
+  o.cpu_output = runtime.cpu_output;
+  return o;
+}
+
 struct Pipeline::Impl {
   const hal::ReplaySequence& sequence;
   Mapper& mapper;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hal/replay/sequence.hpp"
+#include "zonemap/config.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/latency_histogram.hpp"
 #include "zonemap/mapper.hpp"
@@ -20,6 +21,10 @@
 namespace zonemap::runtime {
 
 struct PipelineOptions {
+  // From the configuration's `pipeline:` section (RuntimeConfig); the command line
+  // may then change lossless / source_rate_hz / lock_memory.
+  static PipelineOptions from(const RuntimeConfig& runtime);
+
   // Lossless: the source waits for a free frame slot, every frame is mapped (replay,
   // determinism). Otherwise newest wins: a mapper that falls behind skips to the
   // newest waiting frame; the skipped ones are dropped and counted.

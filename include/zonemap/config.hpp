@@ -43,6 +43,17 @@ struct FeatureConfig {
   double ground_min_coverage = 0.5;
 };
 
+// The onboard runtime (hal/runtime): timing and real-time set-up per stage.
+struct RuntimeConfig {
+  double frame_period_s = 1.0 / 30.0;  // deadline for frame -> boxes out
+  double pose_wait_s = 0.05;           // how long a frame waits for a late pose
+  int publish_every_frames = 3;        // merged boxes to the output stage
+  bool lock_memory = false;            // mlockall at start-up
+  // SCHED_FIFO priority (1..99, 0 = normal scheduling) and CPU (-1 = any) per stage.
+  int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;
+  int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;
+};
+
 struct MapConfig {
   double cell_size_m = 1.0;
   std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
@@ -62,6 +73,7 @@ struct MapConfig {
   double pose_tolerance_s = 0.02;     // nearest pose accepted at the ends of a trajectory
   double depth_scale_override = 0.0;  // > 0 replaces camera.yaml's depth_scale (TUM: 5000)
   FeatureConfig features;
+  RuntimeConfig runtime;
 };
 
 // Returns an empty string when the configuration is usable, else what is wrong.

@@ -9,7 +9,7 @@
 
 int main(int argc, char** argv) {
   zonemap::tools::ReplayOptions options;
-  zonemap::runtime::PipelineOptions pipeline;
+  zonemap::runtime::PipelineOptions pipeline;  // flags only: lossless, rate, mlock
   bool pipelined = false;
   std::string out_dir;
   for (int i = 1; i < argc; ++i) {
@@ -69,7 +69,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (pipelined) {
-    run.run_pipelined(pipeline);
+    auto options_from_config = zonemap::runtime::PipelineOptions::from(run.config().runtime);
+    options_from_config.lossless = pipeline.lossless;
+    options_from_config.source_rate_hz = pipeline.source_rate_hz;
+    options_from_config.lock_memory = options_from_config.lock_memory || pipeline.lock_memory;
+    run.run_pipelined(options_from_config);
   } else {
     run.run();
   }

@@ -1,0 +1,270 @@
+// zonemap-bench: the mapping step measured on generated paper-like frames.
+//   zonemap-bench [--frames N]         comparison table: zonemap (projective and
+//                                      reference paths) vs OctoMap when built with
+//                                      it, per resolution; scaling with image size
+//                                      and d_max
+//   zonemap-bench --micro [gbench args]  Google Benchmark micro benchmarks per stage
+// One core, same frames for every contender, frames rendered in memory (no I/O).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "tools/sim/scenarios.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/mapper.hpp"
+
+#ifdef ZONEMAP_HAVE_OCTOMAP
+#include <octomap/octomap.h>
+#endif
+
+namespace {
+
+using namespace zonemap;
+using Clock = std::chrono::steady_clock;
+
+struct Frames {
+  CameraModel camera;
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<std::vector<std::uint16_t>> depth;
+  std::vector<std::vector<std::uint8_t>> left;
+};
+
+Frames make_frames(int width, int count) {
+  sim::Scenario s;
+  std::string error;
+  sim::make_scenario("treeline", {width, 10.0}, &s, &error);
+  Frames f;
+  f.camera = s.camera;
+  sim::Rng rng(5);
+  const std::size_t pixels = static_cast<std::size_t>(s.camera.width) * s.camera.height;
+  for (int i = 0; i < count; ++i) {
+    // Spread over the approach to the tree line, where the frames see the most.
+    const std::size_t k = static_cast<std::size_t>(i) * (s.trajectory.size() * 2 / 3) / count;
+    f.poses.push_back(s.trajectory[k].world_T_camera);
+    f.depth.emplace_back(pixels);
+    f.left.emplace_back(pixels);
+    sim::render(s.scene, s.camera, f.poses.back(), sim::RenderOptions{}, rng, f.depth.back().data(),
+                f.left.back().data());
+  }
+  return f;
+}
+
+MapConfig config_for(double cell, double d_max, MapConfig::Integration integration) {
+  MapConfig c;
+  c.cell_size_m = cell;
+  c.zone_cells = cell >= 1.0   ? std::array<int, 3>{80, 80, 40}
+                 : cell >= 0.5 ? std::array<int, 3>{160, 160, 80}
+                               : std::array<int, 3>{256, 256, 64};
+  c.d_min_m = 8.0;
+  c.d_max_m = d_max;
+  c.integration = integration;
+  return c;
+}
+
+struct Timing {
+  double median_ms = 0, p99_ms = 0;
+  double cells_per_frame = 0;
+};
+
+Timing summarise(std::vector<double> ms, double cells) {
+  std::sort(ms.begin(), ms.end());
+  Timing t;
+  t.median_ms = ms[ms.size() / 2];
+  t.p99_ms =
+      ms[std::min(ms.size() - 1, static_cast<std::size_t>(0.99 * static_cast<double>(ms.size())))];
+  t.cells_per_frame = cells;
+  return t;
+}
+
+Timing time_zonemap(const Frames& f, const MapConfig& config) {
+  Mapper mapper(config, f.camera);
+  std::vector<double> ms;
+  double cells = 0;
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    DepthFrameView view{f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height};
+    const auto t0 = Clock::now();
+    const FrameReport r = mapper.integrate(view, f.poses[i]);
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    cells += static_cast<double>(r.cells_visited);
+  }
+  return summarise(ms, cells / static_cast<double>(f.poses.size()));
+}
+
+#ifdef ZONEMAP_HAVE_OCTOMAP
+Timing time_octomap(const Frames& f, double cell, double d_max, std::size_t frames) {
+  octomap::OcTree tree(cell);
+  std::vector<double> ms;
+  for (std::size_t i = 0; i < std::min(frames, f.poses.size()); ++i) {
+    octomap::Pointcloud cloud;
+    const auto& k = f.camera;
+    for (int v = 0; v < k.height; ++v)
+      for (int u = 0; u < k.width; ++u) {
+        const std::uint16_t raw = f.depth[i][static_cast<std::size_t>(v) * k.width + u];
+        if (raw == 0) continue;
+        const double d = raw / k.depth_scale;
+        if (d < 8.0) continue;
+        const Eigen::Vector3d p =
+            f.poses[i] * Eigen::Vector3d(d * (u - k.cx) / k.fx, d * (v - k.cy) / k.fy, d);
+        cloud.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
+      }
+    const Eigen::Vector3d o = f.poses[i].translation();
+    const auto t0 = Clock::now();
+    // Its fastest settings: discretised end points, lazy inner-node updates.
+    tree.insertPointCloud(cloud,
+                          octomap::point3d(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                           static_cast<float>(o.z())),
+                          d_max, true, true);
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  return summarise(ms, 0);
+}
+#endif
+
+void comparison(int frame_count) {
+  std::printf(
+      "zonemap-bench: mapping step per frame (sensor model, local grid, blur, fusion), one core,\n"
+      "generated tree-line flight, d_max 50 m, %d frames; ms median / p99\n\n",
+      frame_count);
+  const Frames f640 = make_frames(640, frame_count);
+  std::printf("%-6s %-22s %-22s %-22s %-10s %-14s %-10s\n", "cell", "zonemap projective",
+              "zonemap reference", "octomap 1.9.7", "ratio", "cells/frame", "ns/cell");
+  for (double cell : {1.0, 0.5, 0.25}) {
+    const Timing fast =
+        time_zonemap(f640, config_for(cell, 50.0, MapConfig::Integration::kProjective));
+    Timing reference;
+    if (cell >= 0.5)
+      reference = time_zonemap(f640, config_for(cell, 50.0, MapConfig::Integration::kReference));
+    char ref_text[64] = "-";
+    if (cell >= 0.5)
+      std::snprintf(ref_text, sizeof(ref_text), "%.1f / %.1f", reference.median_ms,
+                    reference.p99_ms);
+    char octo_text[64] = "not built";
+    char ratio_text[32] = "-";
+#ifdef ZONEMAP_HAVE_OCTOMAP
+    const Timing octo =
+        time_octomap(f640, cell, 50.0, cell < 0.5 ? 3 : static_cast<std::size_t>(frame_count));
+    std::snprintf(octo_text, sizeof(octo_text), "%.1f / %.1f", octo.median_ms, octo.p99_ms);
+    std::snprintf(ratio_text, sizeof(ratio_text), "%.1fx", octo.median_ms / fast.median_ms);
+#endif
+    char fast_text[64];
+    std::snprintf(fast_text, sizeof(fast_text), "%.1f / %.1f", fast.median_ms, fast.p99_ms);
+    std::printf("%-6.2f %-22s %-22s %-22s %-10s %-14.0f %-10.1f\n", cell, fast_text, ref_text,
+                octo_text, ratio_text, fast.cells_per_frame,
+                fast.median_ms * 1e6 / std::max(1.0, fast.cells_per_frame));
+  }
+  std::printf(
+      "\nscaling (projective, 0.5 m cells): image size at d_max 50 m, then d_max at 640x480\n");
+  std::printf("%-18s %-16s %-14s\n", "case", "ms median / p99", "cells/frame");
+  for (int width : {320, 640, 1280}) {
+    const Frames f = width == 640 ? f640 : make_frames(width, std::max(4, frame_count / 2));
+    const Timing t = time_zonemap(f, config_for(0.5, 50.0, MapConfig::Integration::kProjective));
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.1f / %.1f", t.median_ms, t.p99_ms);
+    std::printf("%-18s %-16s %-14.0f\n",
+                (std::to_string(width) + "x" + std::to_string(width * 3 / 4)).c_str(), text,
+                t.cells_per_frame);
+  }
+  for (double d_max : {25.0, 50.0, 100.0}) {
+    const Timing t =
+        time_zonemap(f640, config_for(0.5, d_max, MapConfig::Integration::kProjective));
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.1f / %.1f", t.median_ms, t.p99_ms);
+    std::printf("%-18s %-16s %-14.0f\n",
+                ("d_max " + std::to_string(static_cast<int>(d_max)) + " m").c_str(), text,
+                t.cells_per_frame);
+  }
+}
+
+// --- micro benchmarks -------------------------------------------------------------
+
+const Frames& micro_frames() {
+  static const Frames f = make_frames(640, 4);
+  return f;
+}
+
+void BM_SensorModel(benchmark::State& state) {
+  float delta = 8.0f, sum = 0.0f;
+  for (auto _ : state) {
+    sum += sensor_model_value(delta, 30.0f, 1.1f);
+    delta = delta > 50.0f ? 8.0f : delta + 0.37f;
+    benchmark::DoNotOptimize(sum);
+  }
+}
+BENCHMARK(BM_SensorModel);
+
+void BM_MappingStep(benchmark::State& state) {
+  const Frames& f = micro_frames();
+  const auto integration = state.range(0) == 0 ? MapConfig::Integration::kProjective
+                                               : MapConfig::Integration::kReference;
+  Mapper mapper(config_for(0.5, 50.0, integration), f.camera);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    DepthFrameView view{f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height};
+    benchmark::DoNotOptimize(mapper.integrate(view, f.poses[i]));
+    i = (i + 1) % f.poses.size();
+  }
+}
+BENCHMARK(BM_MappingStep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_DepthRangeTableBuild(benchmark::State& state) {
+  const Frames& f = micro_frames();
+  DepthRangeTable table(f.camera.width, f.camera.height);
+  for (auto _ : state) {
+    std::copy(f.depth[0].begin(), f.depth[0].end(), table.base());
+    table.build();
+    benchmark::ClobberMemory();
+  }
+}
+BENCHMARK(BM_DepthRangeTableBuild)->Unit(benchmark::kMicrosecond);
+
+void BM_BlurTouchedRegion(benchmark::State& state) {
+  LocalGrid grid({160, 160, 80});
+  for (auto _ : state) {
+    state.PauseTiming();
+    grid.reset({0, 0, 0});
+    grid.extend_touched(20, 20, 10, 140, 140, 70);
+    state.ResumeTiming();
+    grid.finish(1);
+  }
+}
+BENCHMARK(BM_BlurTouchedRegion)->Unit(benchmark::kMillisecond);
+
+void BM_FeatureExtractionZone(benchmark::State& state) {
+  const Frames& f = micro_frames();
+  MapConfig config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
+  Mapper mapper(config, f.camera);
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    mapper.integrate({f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height},
+                     f.poses[i]);
+  }
+  FeatureMap features(config, true);
+  for (auto _ : state) {
+    mapper.zones().for_each_live_zone([&](ZoneView& zone) { features.extract(zone); });
+  }
+  state.counters["zones"] = mapper.zones().live_zone_count();
+}
+BENCHMARK(BM_FeatureExtractionZone)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc > 1 && std::strcmp(argv[1], "--micro") == 0) {
+    argv[1] = argv[0];
+    int n = argc - 1;
+    benchmark::Initialize(&n, argv + 1);
+    benchmark::RunSpecifiedBenchmarks();
+    return 0;
+  }
+  int frames = 12;
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
+  }
+  comparison(frames);
+  return 0;
+}

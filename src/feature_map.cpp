@@ -105,26 +105,15 @@ void FeatureMap::compute_terrain(const ZoneView& zone) {
       observed_[at] = observed_[at - stride] + observed_row;
     }
   }
-  // Separable minimum over the window (columns without occupied cells ignored).
+  // Terrain candidates: the lowest occupied cell, minimum over the window.
   const int r = ground_window_cells_;
-  const std::int16_t none = INT16_MAX;
-  for (int y = 0; y < ny; ++y) {
-    for (int x = 0; x < nx; ++x) {
-      std::int16_t m = none;
-      for (int i = std::max(0, x - r); i <= std::min(nx - 1, x + r); ++i) {
-        const std::int16_t h = lowest_[static_cast<std::size_t>(y) * nx + i];
-        if (h != kNoHeight) m = std::min(m, h);
-      }
-      column_tmp_[static_cast<std::size_t>(y) * nx + x] = m;
-    }
-  }
+  window_min(lowest_.get(), terrain_.get(), column_tmp_.get(), r);
+  // Kept where the window is a surface (enough of its observed columns hold an
+  // occupied cell), not a thing standing in free air.
   for (int y = 0; y < ny; ++y) {
     const int y0 = std::max(0, y - r);
     const int y1 = std::min(ny - 1, y + r);
     for (int x = 0; x < nx; ++x) {
-      std::int16_t m = none;
-      for (int j = y0; j <= y1; ++j)
-        m = std::min(m, column_tmp_[static_cast<std::size_t>(j) * nx + x]);
       const int x0 = std::max(0, x - r);
       const int x1 = std::min(nx - 1, x + r);
       auto window_sum = [&](const std::int32_t* table) {
@@ -135,17 +124,23 @@ void FeatureMap::compute_terrain(const ZoneView& zone) {
       };
       const std::int32_t covered = window_sum(coverage_.get());
       const std::int32_t observed = window_sum(observed_.get());
-      const bool is_surface = m != none && covered >= config_.ground_min_coverage * observed;
-      terrain_[static_cast<std::size_t>(y) * nx + x] = is_surface ? m : kNoHeight;
+      std::int16_t& t = terrain_[static_cast<std::size_t>(y) * nx + x];
+      if (covered < config_.ground_min_coverage * observed) t = kNoHeight;
     }
   }
   // Columns at the rim of the seen ground (few observed columns hold the ground
   // there) and in the shadows behind obstacles take the lowest terrain of the
-  // surface columns within three window radii.
-  min_filter(terrain_.get(), column_tmp_.get(), 3 * r);
+  // surface columns within three window radii (lowest_ is free to reuse now).
+  window_min(terrain_.get(), lowest_.get(), column_tmp_.get(), 3 * r);
+  for (std::size_t c = 0; c < columns; ++c) {
+    if (terrain_[c] == kNoHeight) terrain_[c] = lowest_[c];
+  }
 }
 
-void FeatureMap::min_filter(std::int16_t* values, std::int16_t* tmp, int r) const {
+void FeatureMap::window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp,
+                            int r) const {
+  // Separable: along x into tmp, then along y into out. kNoHeight entries are
+  // left out; a window with none else gives kNoHeight.
   const int nx = dims_[0];
   const int ny = dims_[1];
   const std::int16_t none = INT16_MAX;
@@ -165,8 +160,7 @@ void FeatureMap::min_filter(std::int16_t* values, std::int16_t* tmp, int r) cons
       for (int j = std::max(0, y - r); j <= std::min(ny - 1, y + r); ++j) {
         m = std::min(m, tmp[static_cast<std::size_t>(j) * nx + x]);
       }
-      std::int16_t& v = values[static_cast<std::size_t>(y) * nx + x];
-      if (v == kNoHeight && m != none) v = m;
+      out[static_cast<std::size_t>(y) * nx + x] = m == none ? kNoHeight : m;
     }
   }
 }

@@ -97,8 +97,8 @@ class FeatureMap : public ZoneObserver {
  private:
   bool is_ground_cell(int x, int y, int z) const;
   void compute_terrain(const ZoneView& zone);
-  // Fills kNoHeight entries with the minimum of the others within radius r.
-  void min_filter(std::int16_t* values, std::int16_t* tmp, int r) const;
+  // out = minimum of the values within radius r (kNoHeight entries left out).
+  void window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp, int r) const;
   void upsert(const ZoneView& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells);
   double relevance(const Feature& f) const;

@@ -160,7 +160,7 @@ TEST(Mapper, CountingReallyCountsAllocations) {
   delete p;
   EXPECT_GE(scope.counted().allocations, 2);
   EXPECT_GE(scope.counted().frees, 2);
-  const os::AllocationCounts before = scope.counted();
+  [[maybe_unused]] const os::AllocationCounts before = scope.counted();
   void* volatile c = std::malloc(64);
   std::free(c);
 #if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)

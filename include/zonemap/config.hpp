@@ -29,7 +29,8 @@ struct FeatureConfig {
   int min_cells = 3;                      // smaller objects are noise (counted)
   int capacity = 4096;                    // features held in the store
   int quadtree_groups = 65536;            // footprint quadtree nodes, in groups of four
-  int extract_every_frames = 10;          // periodic extraction of the zones holding a grid
+  int extract_every_frames = 10;          // each zone holding a grid re-extracted about this often,
+                                          // one zone per frame at most (bounded work per frame)
   double reintegration_units = 4.0;       // value written into a re-allocated zone's object cells
   int merge_gap_cells = 1;  // per-zone features this close across zones are one object
   // Ground: a column's terrain height is the lowest occupied cell, taken as the

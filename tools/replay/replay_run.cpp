@@ -69,7 +69,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
 
   const std::size_t n = sequence_.frame_count();
   frame_ms_.reserve(n);
-  extract_ms_.reserve(n / static_cast<std::size_t>(config_.features.extract_every_frames) + 2);
+  extract_ms_.reserve(n + 2);
   trajectory_.reserve(n);
   mapped_frames_.reserve(n);
   stats_.zone_pool_bytes = mapper_->zones().reserved_bytes();
@@ -166,7 +166,10 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   // pipeline's mapping thread too.
   ++stats_.frames_mapped;
   frame_ms_.push_back(mapping_ms);
-  if (stats_.frames_mapped % config_.features.extract_every_frames == 0) extract_live_zones();
+  // Periodic extraction one zone at a time, so that no frame pays for all of them:
+  // each zone holding a grid comes round about every extract_every_frames frames.
+  const std::int64_t stride = std::max(1, config_.features.extract_every_frames / kZonesHeld);
+  if (stats_.frames_mapped % stride == 0) extract_next_zone();
   if (!in_pipeline_) log_feature_store_events();
   trajectory_.push_back(pose.translation());
   mapped_frames_.push_back(frame_index);
@@ -247,7 +250,26 @@ void ReplayRun::extract_live_zones() {
   }
   extract_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-  log_feature_store_events();
+  if (!in_pipeline_) log_feature_store_events();
+}
+
+void ReplayRun::extract_next_zone() {
+  const int live = mapper_->zones().live_zone_count();
+  if (live == 0) return;
+  const int pick = static_cast<int>(next_zone_++ % static_cast<std::uint64_t>(live));
+  const auto start = std::chrono::steady_clock::now();
+  {
+    os::AllocationScope scope;
+    int k = 0;
+    mapper_->zones().for_each_live_zone([&](ZoneView& zone) {
+      if (k++ == pick) features_->extract(zone);
+    });
+    const os::AllocationCounts counted = scope.counted();
+    stats_.heap_allocations_after_init += counted.allocations;
+    stats_.heap_frees_after_init += counted.frees;
+  }
+  extract_ms_.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
 }
 
 void ReplayRun::log_feature_store_events() {

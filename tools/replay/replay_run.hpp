@@ -62,6 +62,7 @@ class ReplayRun : private runtime::MappingHooks {
 
  private:
   void log_feature_store_events();
+  void extract_next_zone();
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;
   void account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
@@ -81,7 +82,9 @@ class ReplayRun : private runtime::MappingHooks {
   std::vector<std::size_t> mapped_frames_;
   bool finished_ = false;
   FeatureCounters logged_counters_;
-  bool in_pipeline_ = false;  // on the mapping thread: count, do not print
+  bool in_pipeline_ = false;
+  std::uint64_t next_zone_ =
+      0;  // round-robin periodic extraction  // on the mapping thread: count, do not print
   runtime::PipelineStats pipeline_stats_;
 };
 

@@ -170,6 +170,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"at_end\": " << s.rss_at_end << "},\n"
       << "  \"memory_bytes\": {\"zone_pool\": " << s.zone_pool_bytes
       << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
+      << ", \"depth_table\": " << s.depth_table_bytes << ", \"pipeline\": " << s.pipeline_bytes
       << "}\n"
       << "}\n";
   out.close();

@@ -47,7 +47,9 @@ struct RunStats {
   std::uint64_t local_grid_bytes = 0;
   std::uint64_t zone_pool_bytes = 0;
   std::uint64_t feature_map_bytes = 0;
-  std::int64_t obstacle_boxes = 0;  // merged, as in boxes.csv
+  std::uint64_t depth_table_bytes = 0;  // projective path
+  std::uint64_t pipeline_bytes = 0;     // frame pool and output buffers (--pipeline)
+  std::int64_t obstacle_boxes = 0;      // merged, as in boxes.csv
   std::int64_t ground_boxes = 0;
   FeatureCounters feature_counters;
   double extract_ms_p50 = 0.0;

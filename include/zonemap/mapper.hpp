@@ -61,6 +61,7 @@ class Mapper {
   const LocalGrid& local_grid() const { return local_; }
   const MapConfig& config() const { return config_; }
   const CameraModel& camera() const { return camera_; }
+  std::size_t depth_table_bytes() const { return depths_.reserved_bytes(); }
   std::size_t reserved_bytes() const {
     return zones_.reserved_bytes() + local_.reserved_bytes() + depths_.reserved_bytes();
   }

@@ -75,18 +75,19 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   stats_.zone_pool_bytes = mapper_->zones().reserved_bytes();
   stats_.local_grid_bytes = mapper_->local_grid().reserved_bytes();
   stats_.feature_map_bytes = features_->reserved_bytes();
+  stats_.depth_table_bytes = mapper_->depth_table_bytes();
   stats_.static_memory_bytes = mapper_->reserved_bytes() + features_->reserved_bytes();
   if (!options.quiet) {
     const auto& cam = sequence_.camera();
     std::fprintf(stderr,
                  "zonemap-replay: %zu frames %dx%d, cells %.3f m, zones %dx%dx%d, d %.2f..%.2f m\n"
                  "zonemap-replay: reserved %.1f MiB: zone pool %.1f MiB (8 x %zu cells x %zu B), "
-                 "local grid %.1f MiB, feature map %.1f MiB (%d features)\n",
+                 "local grid %.1f MiB, feature map %.1f MiB (%d features), depth table %.1f MiB\n",
                  n, cam.width, cam.height, config_.cell_size_m, dims[0], dims[1], dims[2],
                  config_.d_min_m, config_.d_max_m, mebibytes(stats_.static_memory_bytes),
                  mebibytes(stats_.zone_pool_bytes), zone_cell_count(config_), sizeof(FusedCell),
                  mebibytes(stats_.local_grid_bytes), mebibytes(stats_.feature_map_bytes),
-                 config_.features.capacity);
+                 config_.features.capacity, mebibytes(stats_.depth_table_bytes));
   }
   return true;
 }
@@ -189,7 +190,13 @@ void ReplayRun::after_frame(std::size_t frame_index, const Eigen::Isometry3d& po
 void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
   in_pipeline_ = true;
   runtime::Pipeline pipeline(sequence_, *mapper_, *features_, *this, options);
-  stats_.static_memory_bytes += pipeline.reserved_bytes();
+  stats_.pipeline_bytes = pipeline.reserved_bytes();
+  stats_.static_memory_bytes += stats_.pipeline_bytes;
+  if (!options_.quiet) {
+    std::fprintf(stderr,
+                 "zonemap-replay: pipeline reserved %.1f MiB (frame pool, output buffers)\n",
+                 mebibytes(stats_.pipeline_bytes));
+  }
   pipeline.run();
   in_pipeline_ = false;
   pipeline_stats_ = pipeline.stats();

@@ -364,7 +364,12 @@ void FeatureMap::on_zone_allocated(ZoneView& zone) {
   }
 }
 
-std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool include_ground) {
+std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool include_ground,
+                               FootprintOutput* footprints) {
+  if (footprints != nullptr) {
+    footprints->used = 0;
+    footprints->boxes_without_footprint = 0;
+  }
   const int gap = config_.merge_gap_cells;
   for (std::size_t i = 0; i < capacity_; ++i) parent_[i] = static_cast<std::uint32_t>(i);
   // Features of one object cut by zone faces touch across the face.
@@ -398,9 +403,14 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
       box.id = root.id;
       CellIndex lo = root.min;
       CellIndex hi = root.max;
+      const std::size_t first_rect = footprints != nullptr ? footprints->used : 0;
+      bool footprint_fits = true;
       for (std::size_t j = i; j < capacity_; ++j) {
         const Feature& f = features_[j];
         if (!f.in_use || find_root(parent_.get(), static_cast<std::uint32_t>(j)) != i) continue;
+        if (footprints != nullptr && footprint_fits) {
+          footprint_fits = append_footprint(f, footprints);
+        }
         lo = {std::min(lo.x, f.min.x), std::min(lo.y, f.min.y), std::min(lo.z, f.min.z)};
         hi = {std::max(hi.x, f.max.x), std::max(hi.y, f.max.y), std::max(hi.z, f.max.z)};
         box.id = std::min(box.id, f.id);
@@ -409,10 +419,42 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
       }
       box.min = Eigen::Vector3d(lo.x, lo.y, lo.z) * cell_size_m_;
       box.max = Eigen::Vector3d(hi.x + 1, hi.y + 1, hi.z + 1) * cell_size_m_;
+      if (footprints != nullptr) {
+        footprints->offsets[n] = static_cast<std::uint32_t>(first_rect);
+        footprints->counts[n] =
+            footprint_fits ? static_cast<std::uint32_t>(footprints->used - first_rect) : 0;
+        if (!footprint_fits) {
+          footprints->used = first_rect;  // the space goes to the next box
+          ++footprints->boxes_without_footprint;
+        }
+      }
       out[n++] = box;
     }
   }
   return n;
+}
+
+bool FeatureMap::append_footprint(const Feature& f, FootprintOutput* out) const {
+  const auto rect = [&](int x0, int y0, int x1, int y1) {  // cells [x0, x1) x [y0, y1)
+    out->rects[out->used++] = {
+        static_cast<float>(x0 * cell_size_m_), static_cast<float>(y0 * cell_size_m_),
+        static_cast<float>(x1 * cell_size_m_), static_cast<float>(y1 * cell_size_m_)};
+  };
+  if (!f.has_shape) {
+    if (out->used >= out->capacity) return false;
+    rect(f.min.x, f.min.y, f.max.x + 1, f.max.y + 1);
+    return true;
+  }
+  bool fits = true;
+  shapes_.for_each_full_square(f.shape, f.shape_side, [&](int sx, int sy, int size) {
+    if (out->used >= out->capacity) return fits = false;
+    // The tree covers a power-of-two square: clip to the feature's box.
+    const int x0 = f.min.x + sx, y0 = f.min.y + sy;
+    rect(x0, y0, std::min(x0 + size, f.max.x + 1), std::min(y0 + size, f.max.y + 1));
+    return true;
+  });
+  if (!fits) return false;
+  return true;
 }
 
 }  // namespace zonemap

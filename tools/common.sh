@@ -3,7 +3,7 @@
 
 ZONEMAP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ZONEMAP_PACKAGES=(cmake ninja-build g++ pkg-config libeigen3-dev libpng-dev zlib1g-dev
-                  libyaml-cpp-dev libgtest-dev)
+                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin)
 
 # Installs the Debian packages that are not installed yet; silent when none is missing.
 zonemap_install() {
@@ -34,15 +34,17 @@ zonemap_install_cross_aarch64() {
     "${sudo[@]}" apt-get update -qq >/dev/null
   fi
   zonemap_install g++-aarch64-linux-gnu qemu-user-static libgtest-dev:arm64 libpng-dev:arm64 \
-    zlib1g-dev:arm64 libyaml-cpp0.7:arm64
+    zlib1g-dev:arm64 libyaml-cpp0.7:arm64 libglib2.0-0:arm64
   # libyaml-cpp-dev is not Multi-Arch: installing its :arm64 package would remove the
   # native one. Unpack it into a project-owned sysroot instead (the toolchain file
   # adds it to CMAKE_FIND_ROOT_PATH).
+  # liblcm-dev and liblcm1 likewise (installing them :arm64 would remove lcm-gen).
   local sysroot="$ZONEMAP_ROOT/build/sysroot-arm64"
-  if [ ! -f "$sysroot/usr/include/yaml-cpp/yaml.h" ]; then
+  if [ ! -f "$sysroot/usr/include/yaml-cpp/yaml.h" ] || [ ! -f "$sysroot/usr/include/lcm/lcm.h" ]; then
     local tmp
     tmp="$(mktemp -d)"
-    (cd "$tmp" && apt-get download -qq libyaml-cpp-dev:arm64 libyaml-cpp0.7:arm64 >/dev/null) || return 1
+    (cd "$tmp" && apt-get download -qq libyaml-cpp-dev:arm64 libyaml-cpp0.7:arm64 \
+       liblcm-dev:arm64 liblcm1:arm64 >/dev/null 2>&1) || return 1
     mkdir -p "$sysroot"
     for deb in "$tmp"/*.deb; do dpkg-deb -x "$deb" "$sysroot"; done
     rm -rf "$tmp"

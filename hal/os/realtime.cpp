@@ -1,5 +1,6 @@
 #include "hal/os/realtime.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -45,12 +46,17 @@ bool set_thread_realtime(int priority, int cpu, std::string* warning) {
 }
 
 long resident_bytes() {
-  std::FILE* f = std::fopen("/proc/self/statm", "r");
-  if (f == nullptr) return 0;
+  // open/read, not fopen: no allocation, so the output thread may ask (health).
+  const int fd = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  char text[128];
+  const ssize_t n = ::read(fd, text, sizeof text - 1);
+  ::close(fd);
+  if (n <= 0) return 0;
+  text[n] = '\0';
   long pages_total = 0, pages_resident = 0;
-  const int n = std::fscanf(f, "%ld %ld", &pages_total, &pages_resident);
-  std::fclose(f);
-  return n == 2 ? pages_resident * sysconf(_SC_PAGESIZE) : 0;
+  if (std::sscanf(text, "%ld %ld", &pages_total, &pages_resident) != 2) return 0;
+  return pages_resident * sysconf(_SC_PAGESIZE);
 }
 
 }  // namespace zonemap::os

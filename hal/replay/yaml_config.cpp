@@ -3,64 +3,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <functional>
-#include <map>
 #include <sstream>
 
+#include "hal/config/yaml_support.hpp"
+
 namespace zonemap::hal {
-namespace {
-
-std::string where(const std::string& path, const YAML::Node& node) {
-  const YAML::Mark mark = node.Mark();
-  return path + ":" + std::to_string(mark.line + 1);
-}
-
-// One section of a YAML mapping: each known key has a reader; any other key is an error.
-using Reader = std::function<void(const YAML::Node&)>;
-
-struct ParseError {
-  std::string message;
-};
-
-void read_section(const std::string& path, const YAML::Node& section, const std::string& name,
-                  const std::map<std::string, Reader>& readers) {
-  if (!section.IsMap()) {
-    throw ParseError{where(path, section) + ": '" + name + "' must be a mapping"};
-  }
-  for (const auto& item : section) {
-    const std::string key = item.first.as<std::string>();
-    const auto reader = readers.find(key);
-    if (reader == readers.end()) {
-      throw ParseError{where(path, item.first) + ": unknown key '" + key + "'" +
-                       (name.empty() ? "" : " in '" + name + "'")};
-    }
-    try {
-      reader->second(item.second);
-    } catch (const YAML::Exception&) {
-      throw ParseError{where(path, item.second) + ": bad value for '" + key + "'"};
-    }
-  }
-}
-
-template <typename T>
-Reader into(T* target) {
-  return [target](const YAML::Node& node) { *target = node.as<T>(); };
-}
-
-bool load_file(const std::string& path, YAML::Node* root, std::string* error) {
-  try {
-    *root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    *error = path + ": cannot open";
-    return false;
-  } catch (const YAML::Exception& e) {
-    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
-    return false;
-  }
-  return true;
-}
-
-}  // namespace
 
 bool load_map_config(const std::string& path, MapConfig* config, std::string* error) {
   YAML::Node root;

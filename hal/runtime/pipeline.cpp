@@ -18,6 +18,9 @@ constexpr std::uint32_t kEnd = UINT32_MAX;  // end of stream, through the queues
 double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 // Waiting for work on an idle queue: yield the CPU, never sleep on a lock.
 template <typename Queue, typename T>
@@ -28,6 +31,22 @@ template <typename Queue, typename T>
 void push_waiting(Queue& queue, const T& item) {
   while (!queue.push(item)) std::this_thread::yield();
 }
+
+// The INS thread's counters as the other threads may read them (relaxed: each
+// is a count on its own, no consistency across them is needed).
+struct SharedInsCounters {
+  std::atomic<std::int64_t> messages{0}, malformed{0}, solutions{0}, poses_out{0}, link_errors{0},
+      rejected{0}, reanchors{0};
+  void store(const hal::PoseSourceCounters& c) {
+    messages.store(c.messages, std::memory_order_relaxed);
+    malformed.store(c.malformed, std::memory_order_relaxed);
+    solutions.store(c.solutions, std::memory_order_relaxed);
+    poses_out.store(c.poses_out, std::memory_order_relaxed);
+    link_errors.store(c.link_errors, std::memory_order_relaxed);
+    rejected.store(c.gate.rejected_total(), std::memory_order_relaxed);
+    reanchors.store(c.gate.reanchors, std::memory_order_relaxed);
+  }
+};
 
 }  // namespace
 
@@ -47,11 +66,16 @@ PipelineOptions PipelineOptions::from(const RuntimeConfig& runtime) {
 }
 
 struct Pipeline::Impl {
-  const hal::ReplaySequence& sequence;
+  std::unique_ptr<hal::ReplayFrameSource> owned_source;
+  hal::FrameSource& source;
+  const PoseTrack* replay_poses;
+  hal::PoseSource* live_poses;
+  std::vector<hal::ObstacleSink*> sinks;
   Mapper& mapper;
   FeatureMap& features;
   MappingHooks& hooks;
   PipelineOptions options;
+  Clock::time_point started = Clock::now();
 
   struct SlotInfo {
     std::size_t frame_index = 0;
@@ -67,22 +91,45 @@ struct Pipeline::Impl {
   struct OutputBuffer {
     std::vector<ObstacleBox> boxes;
     std::size_t count = 0;
+    std::vector<FootprintRect> rects;
+    std::vector<std::uint32_t> rect_offsets, rect_counts;
     Clock::time_point acquired;
+    double time_s = 0.0;
+    Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();
+    hal::HealthSnapshot health;  // the mapping side's counters at this update
   };
   std::array<OutputBuffer, kOutputSlots> outputs;
   SpscQueue<std::uint32_t, 4> out_filled;  // mapping -> output
   SpscQueue<std::uint32_t, 4> out_free;    // output -> mapping
 
   std::atomic<std::int64_t> offered{0};
+  std::atomic<bool> stop_requested{false};
+  std::atomic<bool> mapping_done{false};
+  // Acquisition counters the mapping thread reads for the health message.
+  std::atomic<std::int64_t> shared_frames_in{0}, shared_rejected{0}, shared_pool_full{0};
+  SharedInsCounters ins_counters;
   // Counters, each written by one thread only and read after join.
-  PipelineStats acquisition_stats, mapping_stats, output_stats;
+  PipelineStats acquisition_stats, mapping_stats, output_stats, ins_stats;
 
-  Impl(const hal::ReplaySequence& seq, Mapper& m, FeatureMap& f, MappingHooks& h,
+  Impl(hal::FrameSource& frame_source, const PoseTrack* replay, hal::PoseSource* live,
+       std::span<hal::ObstacleSink* const> sink_list, Mapper& m, FeatureMap& f, MappingHooks& h,
        const PipelineOptions& o)
-      : sequence(seq), mapper(m), features(f), hooks(h), options(o) {
-    for (auto& frame : frames) frame = sequence.make_frame();
+      : source(frame_source),
+        replay_poses(replay),
+        live_poses(live),
+        sinks(sink_list.begin(), sink_list.end()),
+        mapper(m),
+        features(f),
+        hooks(h),
+        options(o) {
+    for (auto& frame : frames) frame = source.make_frame();
     for (std::uint32_t i = 0; i < kFrameSlots; ++i) free_slots.push(i);
-    for (auto& out : outputs) out.boxes.resize(features.capacity());
+    for (auto& out : outputs) {
+      out.boxes.resize(features.capacity());
+      out.rects.resize(options.footprint_rects);
+      out.rect_offsets.resize(features.capacity());
+      out.rect_counts.resize(features.capacity());
+    }
     for (std::uint32_t i = 0; i < kOutputSlots; ++i) out_free.push(i);
     mapping_track = PoseTrack(m.config().pose_max_gap_s, m.config().pose_tolerance_s);
     mapping_track.reserve(512);
@@ -98,47 +145,92 @@ struct Pipeline::Impl {
   void acquisition() {
     PipelineStats& s = acquisition_stats;
     realtime(options.priority_acquisition, options.cpu_acquisition, &s, "acquisition");
-    const auto& samples = sequence.poses().samples();
     std::size_t next_pose = 0;
     const double gap = mapper.config().pose_max_gap_s;
-    const Clock::time_point start = Clock::now();
-    std::uint32_t spare = kEnd;  // a slot taken but not sent (rejected frame)
+    std::uint32_t spare = kEnd;  // a slot taken but not sent (rejected or no frame)
+    std::size_t frame_index = 0;
     std::string why;
-    for (std::size_t i = 0; i < sequence.frame_count(); ++i) {
-      if (options.source_rate_hz > 0.0) {
-        std::this_thread::sleep_until(
-            start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                        static_cast<double>(i) / options.source_rate_hz)));
-      }
-      ++s.frames_in;
-      // The INS: poses reach the buffer as the frames come (up to one gap ahead).
-      const double frame_time = sequence.entry(i).time_s;
-      while (next_pose < samples.size() && samples[next_pose].time_s <= frame_time + gap) {
-        poses.push(samples[next_pose++]);
-      }
+    why.reserve(512);
+    while (!stop_requested.load(std::memory_order_acquire)) {
       std::uint32_t slot = spare;
       spare = kEnd;
       if (slot == kEnd) {
         if (options.lossless) {
           pop_waiting(free_slots, &slot);
         } else if (!free_slots.pop(&slot)) {
-          ++s.dropped_pool_full;  // every slot is waiting: this frame is lost, counted
-          offered.fetch_add(1, std::memory_order_release);
-          continue;
+          slot = kEnd;  // every slot waits for the mapper: this frame will be dropped
         }
       }
-      if (!sequence.read(i, &frames[slot], &why)) {
+      hal::ReplayFrame* target = slot == kEnd ? &drop_frame : &frames[slot];
+      const hal::FrameRead read = source.next(target, 100, &why);
+      if (read == hal::FrameRead::kEnd) {
+        spare = slot;
+        break;
+      }
+      if (read == hal::FrameRead::kNone) {
+        spare = slot;
+        continue;
+      }
+      ++s.frames_in;
+      shared_frames_in.fetch_add(1, std::memory_order_relaxed);
+      const std::size_t index = frame_index++;
+      if (slot == kEnd) {
+        ++s.dropped_pool_full;  // counted, never mapped
+        shared_pool_full.fetch_add(1, std::memory_order_relaxed);
+        offered.fetch_add(1, std::memory_order_release);
+        continue;
+      }
+      if (read == hal::FrameRead::kRejected) {
         ++s.frames_rejected;
+        shared_rejected.fetch_add(1, std::memory_order_relaxed);
         spare = slot;
         offered.fetch_add(1, std::memory_order_release);
         continue;
       }
-      frame_info[slot] = {i, Clock::now()};
+      // Replay poses reach the buffer as the frames come (up to one gap ahead).
+      if (replay_poses != nullptr) {
+        const auto& samples = replay_poses->samples();
+        const double frame_time = frames[slot].time_s;
+        while (next_pose < samples.size() && samples[next_pose].time_s <= frame_time + gap) {
+          poses.push(samples[next_pose++]);
+        }
+      }
+      frame_info[slot] = {index, Clock::now()};
       push_waiting(filled, slot);  // cannot stay full: it holds all the slots
       offered.fetch_add(1, std::memory_order_release);
     }
-    while (next_pose < samples.size()) poses.push(samples[next_pose++]);
+    if (stop_requested.load(std::memory_order_acquire)) s.stopped = true;
+    if (replay_poses != nullptr) {
+      const auto& samples = replay_poses->samples();
+      while (next_pose < samples.size()) poses.push(samples[next_pose++]);
+    }
+    s.frames_lost = source.frames_lost();
     push_waiting(filled, kEnd);
+  }
+
+  // Newest wins with every slot waiting: the next frame is read into this spare
+  // buffer and dropped (a live source must be drained, not left to queue up).
+  hal::ReplayFrame drop_frame;
+
+  struct BufferSink final : hal::PoseSink {
+    PoseBuffer<512>* buffer;
+    void push(const PoseSample& p) override { buffer->push(p); }
+  };
+
+  void ins() {
+    PipelineStats& s = ins_stats;
+    realtime(options.priority_ins, options.cpu_ins, &s, "ins");
+    BufferSink sink;
+    sink.buffer = &poses;
+    os::AllocationScope scope;
+    while (!mapping_done.load(std::memory_order_acquire)) {
+      const hal::PollResult r = live_poses->poll(sink, 20);
+      ins_counters.store(live_poses->counters());
+      if (r == hal::PollResult::kEnd) break;
+    }
+    const os::AllocationCounts counted = scope.counted();
+    s.ins_thread_allocations = counted.allocations;
+    s.ins_thread_frees = counted.frees;
   }
 
   bool pose_for(double time_s, Eigen::Isometry3d* pose, PipelineStats* s) {
@@ -157,6 +249,37 @@ struct Pipeline::Impl {
       if (newest >= time_s) return false;
     }
     return false;
+  }
+
+  void fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
+                   const os::AllocationCounts& allocations) {
+    *h = hal::HealthSnapshot{};
+    h->uptime_s = seconds_since(started);
+    h->frames_in = shared_frames_in.load(std::memory_order_relaxed);
+    h->frames_mapped = s.frames_mapped;
+    h->frames_rejected = shared_rejected.load(std::memory_order_relaxed) + s.frames_rejected;
+    h->frames_skipped_no_pose = s.frames_skipped_no_pose;
+    h->frames_dropped = s.dropped_mapper_behind + shared_pool_full.load(std::memory_order_relaxed);
+    h->poses_in = ins_counters.poses_out.load(std::memory_order_relaxed);
+    h->poses_rejected = ins_counters.rejected.load(std::memory_order_relaxed) +
+                        ins_counters.malformed.load(std::memory_order_relaxed);
+    h->heap_allocations_after_init = allocations.allocations;
+    h->mapping_ms_p50 = s.mapping.percentile(0.50);
+    h->mapping_ms_p99 = s.mapping.percentile(0.99);
+    h->zones_allocated = static_cast<std::int32_t>(mapper.zones().zones_allocated());
+    h->features = static_cast<std::int32_t>(features.count());
+    h->add("pose_waits", s.pose_waits);
+    h->add("outputs_skipped", s.outputs_skipped);
+    h->add("ins_messages", ins_counters.messages.load(std::memory_order_relaxed));
+    h->add("ins_malformed", ins_counters.malformed.load(std::memory_order_relaxed));
+    h->add("ins_link_errors", ins_counters.link_errors.load(std::memory_order_relaxed));
+    h->add("ins_reanchors", ins_counters.reanchors.load(std::memory_order_relaxed));
+    h->add("dropped_mapper_behind", s.dropped_mapper_behind);
+    h->add("dropped_pool_full", shared_pool_full.load(std::memory_order_relaxed));
+    const FeatureCounters& fc = features.counters();
+    h->add("features_evicted", fc.features_evicted);
+    h->add("features_dropped", fc.features_dropped);
+    h->add("feature_shapes_truncated", fc.shapes_truncated);
   }
 
   void mapping() {
@@ -194,6 +317,7 @@ struct Pipeline::Impl {
       DepthFrameView view{frame.depth.data(), frame.has_left ? frame.left.data() : nullptr,
                           mapper.camera().width, mapper.camera().height};
       features.set_context(frame.time_s, pose.translation());
+      const double frame_time = frame.time_s;
       const FrameReport report = mapper.integrate(view, pose);
       push_waiting(free_slots, slot);
       if (report.status != FrameStatus::kMapped) {
@@ -210,8 +334,17 @@ struct Pipeline::Impl {
           ++s.outputs_skipped;
         } else {
           OutputBuffer& buffer = outputs[out];
-          buffer.count = features.merged(buffer.boxes.data(), buffer.boxes.size(), false);
+          FootprintOutput shapes;
+          shapes.rects = buffer.rects.data();
+          shapes.capacity = buffer.rects.size();
+          shapes.offsets = buffer.rect_offsets.data();
+          shapes.counts = buffer.rect_counts.data();
+          buffer.count = features.merged(buffer.boxes.data(), buffer.boxes.size(),
+                                         options.include_ground, &shapes);
           buffer.acquired = info.acquired;
+          buffer.time_s = frame_time;
+          buffer.world_T_body = pose * options.body_T_camera.inverse();
+          fill_health(&buffer.health, s, scope.counted());
           push_waiting(out_filled, out);
         }
       }
@@ -219,6 +352,7 @@ struct Pipeline::Impl {
     const os::AllocationCounts counted = scope.counted();
     s.mapping_thread_allocations = counted.allocations;
     s.mapping_thread_frees = counted.frees;
+    mapping_done.store(true, std::memory_order_release);
     push_waiting(out_filled, kEnd);
   }
 
@@ -226,28 +360,75 @@ struct Pipeline::Impl {
     PipelineStats& s = output_stats;
     realtime(options.priority_output, options.cpu_output, &s, "output");
     os::AllocationScope scope;
+    double last_health_s = -1e300;
     while (true) {
       std::uint32_t out = kEnd;
       pop_waiting(out_filled, &out);
       if (out == kEnd) break;
-      // The vehicle links send outputs[out] here (CAN, LCM); the replay keeps count.
-      const double ms = ms_between(outputs[out].acquired, Clock::now());
+      OutputBuffer& buffer = outputs[out];
+      const double now = seconds_since(started);
+      hal::ObstacleUpdate update;
+      update.time_s = buffer.time_s;
+      update.world_T_body = buffer.world_T_body;
+      update.world_z_up = options.world_z_up;
+      update.boxes = buffer.boxes.data();
+      update.count = buffer.count;
+      update.rects = buffer.rects.data();
+      update.rect_offsets = buffer.rect_offsets.data();
+      update.rect_counts = buffer.rect_counts.data();
+      for (hal::ObstacleSink* sink : sinks) sink->publish(update, now);
+      const double ms = ms_between(buffer.acquired, Clock::now());
       s.end_to_end.record(ms);
       if (ms > options.frame_period_s * 1000.0) ++s.deadline_misses;
       ++s.outputs_published;
+      if (!sinks.empty() && now - last_health_s >= options.health_period_s) {
+        last_health_s = now;
+        hal::HealthSnapshot& h = buffer.health;
+        h.time_s = buffer.time_s;
+        h.deadline_misses = s.deadline_misses;
+        h.end_to_end_ms_p50 = s.end_to_end.percentile(0.50);
+        h.end_to_end_ms_p99 = s.end_to_end.percentile(0.99);
+        h.end_to_end_ms_p999 = s.end_to_end.percentile(0.999);
+        h.heap_allocations_after_init += scope.counted().allocations;
+        h.static_memory_bytes = static_cast<std::int64_t>(static_bytes);
+        h.rss_bytes = os::resident_bytes();
+        for (hal::ObstacleSink* sink : sinks) sink->report(&h);
+        for (hal::ObstacleSink* sink : sinks) sink->publish_health(h, now);
+        ++s.health_published;
+      }
       push_waiting(out_free, out);
     }
     const os::AllocationCounts counted = scope.counted();
     s.output_thread_allocations = counted.allocations;
     s.output_thread_frees = counted.frees;
   }
+  std::size_t static_bytes = 0;
 };
 
 Pipeline::Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
-                   MappingHooks& hooks, const PipelineOptions& options)
-    : impl_(std::make_unique<Impl>(sequence, mapper, features, hooks, options)) {}
+                   MappingHooks& hooks, const PipelineOptions& options) {
+  auto source = std::make_unique<hal::ReplayFrameSource>(sequence, options.source_rate_hz);
+  impl_ = std::make_unique<Impl>(*source, &sequence.poses(), nullptr,
+                                 std::span<hal::ObstacleSink* const>{}, mapper, features, hooks,
+                                 options);
+  impl_->owned_source = std::move(source);
+  impl_->drop_frame = impl_->source.make_frame();
+}
+
+Pipeline::Pipeline(hal::FrameSource& frames, const PoseTrack* replay_poses,
+                   hal::PoseSource* live_poses, std::span<hal::ObstacleSink* const> sinks,
+                   Mapper& mapper, FeatureMap& features, MappingHooks& hooks,
+                   const PipelineOptions& options)
+    : impl_(std::make_unique<Impl>(frames, replay_poses, live_poses, sinks, mapper, features, hooks,
+                                   options)) {
+  impl_->drop_frame = impl_->source.make_frame();
+}
 
 Pipeline::~Pipeline() = default;
+
+void Pipeline::stop() {
+  impl_->stop_requested.store(true, std::memory_order_release);
+}
 
 std::int64_t Pipeline::frames_offered() const {
   return impl_->offered.load(std::memory_order_acquire);
@@ -256,8 +437,11 @@ std::int64_t Pipeline::frames_offered() const {
 std::size_t Pipeline::reserved_bytes() const {
   const std::size_t pixels = static_cast<std::size_t>(impl_->mapper.camera().width) *
                              static_cast<std::size_t>(impl_->mapper.camera().height);
-  return kFrameSlots * pixels * 3 +
-         kOutputSlots * impl_->features.capacity() * sizeof(ObstacleBox) + sizeof(Impl);
+  const std::size_t boxes = impl_->features.capacity();
+  return (kFrameSlots + 1) * pixels * 3 +
+         kOutputSlots * (boxes * (sizeof(ObstacleBox) + 2 * sizeof(std::uint32_t)) +
+                         impl_->options.footprint_rects * sizeof(FootprintRect)) +
+         sizeof(Impl);
 }
 
 void Pipeline::run() {
@@ -266,20 +450,28 @@ void Pipeline::run() {
     std::string warning;
     if (!os::lock_memory(&warning)) stats_.warnings.push_back(warning);
   }
+  impl_->static_bytes =
+      reserved_bytes() + impl_->mapper.reserved_bytes() + impl_->features.reserved_bytes();
   stats_.rss_after_start = os::resident_bytes();
   std::thread output([this] { impl_->output(); });
   std::thread mapping([this] { impl_->mapping(); });
+  std::thread ins;
+  if (impl_->live_poses != nullptr) ins = std::thread([this] { impl_->ins(); });
   std::thread acquisition([this] { impl_->acquisition(); });
   acquisition.join();
   mapping.join();
+  if (ins.joinable()) ins.join();
   output.join();
   stats_.rss_at_end = os::resident_bytes();
   const PipelineStats& a = impl_->acquisition_stats;
   const PipelineStats& m = impl_->mapping_stats;
   const PipelineStats& o = impl_->output_stats;
+  const PipelineStats& i = impl_->ins_stats;
   stats_.frames_in = a.frames_in;
   stats_.frames_rejected = a.frames_rejected + m.frames_rejected;
   stats_.dropped_pool_full = a.dropped_pool_full;
+  stats_.frames_lost = a.frames_lost;
+  stats_.stopped = a.stopped;
   stats_.frames_mapped = m.frames_mapped;
   stats_.frames_skipped_no_pose = m.frames_skipped_no_pose;
   stats_.dropped_mapper_behind = m.dropped_mapper_behind;
@@ -290,11 +482,14 @@ void Pipeline::run() {
   stats_.acquire_to_map_start = m.acquire_to_map_start;
   stats_.mapping = m.mapping;
   stats_.outputs_published = o.outputs_published;
+  stats_.health_published = o.health_published;
   stats_.deadline_misses = o.deadline_misses;
   stats_.end_to_end = o.end_to_end;
   stats_.output_thread_allocations = o.output_thread_allocations;
   stats_.output_thread_frees = o.output_thread_frees;
-  for (const auto* part : {&a, &m, &o}) {
+  stats_.ins_thread_allocations = i.ins_thread_allocations;
+  stats_.ins_thread_frees = i.ins_thread_frees;
+  for (const auto* part : {&a, &m, &o, &i}) {
     stats_.warnings.insert(stats_.warnings.end(), part->warnings.begin(), part->warnings.end());
   }
 }

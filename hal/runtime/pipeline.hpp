@@ -12,6 +12,11 @@
 #include <string>
 #include <vector>
 
+#include <span>
+
+#include "hal/frames/frame_source.hpp"
+#include "hal/ins/pose_source.hpp"
+#include "hal/output/obstacle_sink.hpp"
 #include "hal/replay/sequence.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/feature_map.hpp"
@@ -36,6 +41,12 @@ struct PipelineOptions {
   bool lock_memory = false;
   int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;  // SCHED_FIFO, 0 = off
   int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;              // -1 = any
+  int priority_ins = 0, cpu_ins = -1;                                       // the live INS thread
+  double health_period_s = 1.0;                                             // health to the sinks
+  bool include_ground = false;                                      // ground boxes to the sinks too
+  Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();  // for body-frame outputs
+  bool world_z_up = true;
+  std::size_t footprint_rects = 16384;  // footprint rectangles per output buffer
 };
 
 struct PipelineStats {
@@ -51,6 +62,10 @@ struct PipelineStats {
   std::int64_t deadline_misses = 0;  // end-to-end latency over the frame period
   std::int64_t mapping_thread_allocations = 0, mapping_thread_frees = 0;
   std::int64_t output_thread_allocations = 0, output_thread_frees = 0;
+  std::int64_t ins_thread_allocations = 0, ins_thread_frees = 0;
+  std::int64_t frames_lost = 0;  // the frame source's sequence gaps
+  std::int64_t health_published = 0;
+  bool stopped = false;                   // stop() ended the run before the source did
   LatencyHistogram acquire_to_map_start;  // queueing
   LatencyHistogram mapping;               // the mapping step (+ extraction when due)
   LatencyHistogram end_to_end;            // acquisition done -> boxes out
@@ -72,12 +87,22 @@ class Pipeline {
   static constexpr int kFrameSlots = 8;
   static constexpr int kOutputSlots = 3;
 
+  // Replay: the sequence's frames (paced at options.source_rate_hz) and its poses,
+  // pushed as the frames come.
   Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
+           MappingHooks& hooks, const PipelineOptions& options);
+  // Any frame source. Poses: either `replay_poses` (pushed as the frames come) or a
+  // live source polled on its own INS thread. Sinks get every published update.
+  Pipeline(hal::FrameSource& frames, const PoseTrack* replay_poses, hal::PoseSource* live_poses,
+           std::span<hal::ObstacleSink* const> sinks, Mapper& mapper, FeatureMap& features,
            MappingHooks& hooks, const PipelineOptions& options);
   ~Pipeline();
 
-  // Runs the whole sequence through the three threads and joins them.
+  // Runs until the frame source ends (or stop()) through the threads, joins them.
   void run();
+  // Any thread, e.g. a signal: the acquisition ends after its current frame and
+  // everything already acquired is mapped and published.
+  void stop();
   const PipelineStats& stats() const { return stats_; }
   // Frames the acquisition stage has dealt with so far, handed on or dropped
   // (any thread may read).

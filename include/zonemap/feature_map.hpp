@@ -46,6 +46,20 @@ struct ObstacleBox {
   std::int32_t parts = 0;  // per-zone features merged into it
 };
 
+// Footprint of a merged box for the outputs: the full squares of its features'
+// quadtrees as world rectangles (a feature without a shape gives its box).
+struct FootprintRect {
+  float x0, y0, x1, y1;
+};
+struct FootprintOutput {
+  FootprintRect* rects = nullptr;
+  std::size_t capacity = 0;          // rectangles in all
+  std::uint32_t* offsets = nullptr;  // per box: first rectangle
+  std::uint32_t* counts = nullptr;   // per box: rectangles (0 when they did not fit)
+  std::size_t used = 0;
+  std::int64_t boxes_without_footprint = 0;  // did not fit: the box is the shape
+};
+
 struct FeatureCounters {
   std::int64_t extractions = 0;
   std::int64_t features_added = 0;
@@ -79,7 +93,9 @@ class FeatureMap : public ZoneObserver {
 
   // Merges features of one object cut by zone boundaries. Writes at most
   // `capacity` boxes (obstacles before ground) and returns how many.
-  std::size_t merged(ObstacleBox* out, std::size_t capacity, bool include_ground);
+  // With `footprints`, each box's footprint rectangles too (bounded by its capacity).
+  std::size_t merged(ObstacleBox* out, std::size_t capacity, bool include_ground,
+                     FootprintOutput* footprints = nullptr);
 
   // Footprint test in world cells for a feature (box and shape).
   bool feature_contains(const Feature& f, const CellIndex& cell) const;
@@ -102,6 +118,7 @@ class FeatureMap : public ZoneObserver {
   void upsert(const ZoneView& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells);
   double relevance(const Feature& f) const;
+  bool append_footprint(const Feature& f, FootprintOutput* out) const;
   Feature* free_slot(double new_relevance);
   void remove(Feature* f);
   int height_of(int z) const { return z_up_ ? z : dims_[2] - 1 - z; }

@@ -30,22 +30,40 @@ class PoseBuffer {
     // copy saw no store of this write in between. Poses come at ~100 Hz: cheap.
     const std::uint32_t seq = slot.seq.load();
     slot.seq.store(seq + 1);  // odd: being written
-    store(slot, sample);
+    store(slot, sample, n);
     slot.seq.store(seq + 2);  // even: complete
     count_.store(n + 1, std::memory_order_release);
   }
 
-  // Reader thread. Copies the newest samples (oldest first) into `track` (which
+  // One reader thread. Copies the newest samples (oldest first) into `track` (which
   // must have room, see PoseTrack::reserve) so that it can interpolate; returns
   // the time of the newest sample, or -inf when there is none.
   double snapshot(PoseTrack* track) const {
     track->clear();
-    const std::uint64_t n = count_.load(std::memory_order_acquire);
-    const std::uint64_t first = n > Capacity - 1 ? n - (Capacity - 1) : 0;  // one slot of slack
+    // Newest first: the newest sample is the one a fast writer overwrites last, so
+    // "newest" never goes back between snapshots. If even it was overwritten (the
+    // reader was descheduled for a whole lap), start again (bounded).
+    std::uint64_t n = 0, first = 0, oldest_read = 0;
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      n = count_.load(std::memory_order_acquire);
+      if (n == 0) return -std::numeric_limits<double>::infinity();
+      first = n > Capacity - 1 ? n - (Capacity - 1) : 0;  // one slot of slack
+      oldest_read = n;
+      if (read(slots_[(n - 1) % Capacity], n - 1, &scratch_[(n - 1) % Capacity])) {
+        oldest_read = n - 1;
+        break;
+      }
+    }
+    if (oldest_read == n) return -std::numeric_limits<double>::infinity();
+    // Older samples back to `first`; stop at the first one overwritten meanwhile
+    // (everything older is gone too).
+    while (oldest_read > first && read(slots_[(oldest_read - 1) % Capacity], oldest_read - 1,
+                                       &scratch_[(oldest_read - 1) % Capacity])) {
+      --oldest_read;
+    }
     double newest = -std::numeric_limits<double>::infinity();
-    for (std::uint64_t i = first; i < n; ++i) {
-      PoseSample sample;
-      if (!read(slots_[i % Capacity], &sample)) continue;  // overwritten meanwhile: skip it
+    for (std::uint64_t i = oldest_read; i < n; ++i) {
+      const PoseSample& sample = scratch_[i % Capacity];
       if (track->append(sample)) newest = sample.time_s;
     }
     return newest;
@@ -59,19 +77,23 @@ class PoseBuffer {
   struct Slot {
     std::atomic<std::uint32_t> seq{0};
     std::array<std::atomic<double>, 8> values{};
+    std::atomic<std::uint64_t> index{UINT64_MAX};  // which sample (0, 1, ...) it holds
   };
-  static void store(Slot& slot, const PoseSample& s) {
+  static void store(Slot& slot, const PoseSample& s, std::uint64_t index) {
+    slot.index.store(index);
     const double v[8] = {s.time_s,       s.position.x(), s.position.y(), s.position.z(),
                          s.attitude.x(), s.attitude.y(), s.attitude.z(), s.attitude.w()};
     for (std::size_t k = 0; k < 8; ++k) slot.values[k].store(v[k]);
   }
-  static bool read(const Slot& slot, PoseSample* out) {
+  static bool read(const Slot& slot, std::uint64_t index, PoseSample* out) {
     for (int attempt = 0; attempt < 4; ++attempt) {
       const std::uint32_t before = slot.seq.load();
       if (before & 1u) continue;
       double v[8];
       for (std::size_t k = 0; k < 8; ++k) v[k] = slot.values[k].load();
+      const std::uint64_t held = slot.index.load();
       if (slot.seq.load() != before) continue;
+      if (held != index) return false;
       out->time_s = v[0];
       out->position = Eigen::Vector3d(v[1], v[2], v[3]);
       out->attitude = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
@@ -81,6 +103,8 @@ class PoseBuffer {
   }
 
   std::array<Slot, Capacity> slots_{};
+  // The reader's copies (one reader thread; snapshot() is not re-entrant).
+  mutable std::array<PoseSample, Capacity> scratch_{};
   std::atomic<std::uint64_t> count_{0};
 };
 

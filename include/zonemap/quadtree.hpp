@@ -35,6 +35,30 @@ class QuadtreePool {
   bool contains(const QuadNode& root, int side, int x, int y) const;
   // Writes the footprint back (1 = occupied) for width x height.
   void rasterize(const QuadNode& root, int side, int width, int height, std::uint8_t* out) const;
+  // Calls visit(x0, y0, size) for each full square of the tree (cells), depth
+  // first, until visit returns false. Allocation-free (depth <= 10).
+  template <typename Visit>
+  void for_each_full_square(const QuadNode& root, int side, Visit&& visit) const {
+    struct Pending {
+      const QuadNode* node;
+      int x0, y0, size;
+    };
+    Pending stack[4 * 11];  // three siblings wait per level
+    int top = 0;
+    stack[top++] = {&root, 0, 0, side};
+    while (top > 0) {
+      const Pending p = stack[--top];
+      if (p.node->state == QuadState::kFull) {
+        if (!visit(p.x0, p.y0, p.size)) return;
+      } else if (p.node->state == QuadState::kMixed && p.size > 1) {
+        const int half = p.size / 2;
+        const QuadNode* children = &nodes_[static_cast<std::size_t>(p.node->children) * 4];
+        for (int c = 3; c >= 0; --c) {
+          stack[top++] = {&children[c], p.x0 + (c % 2) * half, p.y0 + (c / 2) * half, half};
+        }
+      }
+    }
+  }
   // Nodes in the tree below and including root.
   std::size_t node_count(const QuadNode& root) const;
 

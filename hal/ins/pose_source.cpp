@@ -1,0 +1,34 @@
+#include "hal/ins/pose_source.hpp"
+
+namespace zonemap::hal {
+
+void RateLimitedLog::log(int reason, double now_s, const char* source, const char* what) {
+  const int r = reason < 0 || reason >= kReasons ? kReasons - 1 : reason;
+  if (logged_[r] && now_s - last_s_[r] < interval_s_) {
+    ++suppressed_[r];
+    return;
+  }
+  if (suppressed_[r] > 0) {
+    std::fprintf(stderr, "zonemap: %s: %s (and %lld more)\n", source, what,
+                 static_cast<long long>(suppressed_[r]));
+  } else {
+    std::fprintf(stderr, "zonemap: %s: %s\n", source, what);
+  }
+  logged_[r] = true;
+  last_s_[r] = now_s;
+  suppressed_[r] = 0;
+}
+
+bool InsPoseFilter::pass(InsSolution solution, PoseSink& sink, double now_s) {
+  solution.time_s += time_offset_s_;
+  InsRejection why{};
+  if (!gate_.check(solution, &why)) {
+    log_.log(static_cast<int>(why), now_s, name_, to_string(why));
+    return false;
+  }
+  sink.push(camera_pose_sample(solution, body_T_camera_));
+  ++poses_out_;
+  return true;
+}
+
+}  // namespace zonemap::hal

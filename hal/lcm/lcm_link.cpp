@@ -1,0 +1,200 @@
+#include "hal/lcm/lcm_link.hpp"
+
+#include <lcm/eventlog.h>
+#include <lcm/lcm.h>
+#include <poll.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include "hal/lcm/lcm_codec.hpp"
+
+namespace zonemap::lcm_link {
+
+LcmConnection::LcmConnection(std::string url, double backoff_min_s, double backoff_max_s)
+    : url_(std::move(url)),
+      backoff_min_s_(backoff_min_s),
+      backoff_max_s_(backoff_max_s),
+      backoff_s_(backoff_min_s) {}
+
+LcmConnection::~LcmConnection() {
+  if (lcm_ != nullptr) lcm_destroy(lcm_);
+}
+
+lcm_t* LcmConnection::get(double now_s) {
+  if (lcm_ != nullptr) return lcm_;
+  if (now_s < next_attempt_s_) return nullptr;
+  lcm_ = lcm_create(url_.c_str());
+  if (lcm_ == nullptr) {
+    ++start_failures_;
+    next_attempt_s_ = now_s + backoff_s_;
+    backoff_s_ = std::min(backoff_s_ * 2.0, backoff_max_s_);
+    return nullptr;
+  }
+  backoff_s_ = backoff_min_s_;
+  return lcm_;
+}
+
+void LcmConnection::reset(double now_s) {
+  if (lcm_ != nullptr) lcm_destroy(lcm_);
+  lcm_ = nullptr;
+  next_attempt_s_ = now_s + backoff_s_;
+}
+
+LcmPoseSource::LcmPoseSource(const std::string& url, const std::string& channel, bool world_z_up,
+                             const InsGateConfig& gate, const Eigen::Isometry3d& body_T_camera,
+                             double time_offset_s)
+    : connection_(url),
+      channel_(channel),
+      world_z_up_(world_z_up),
+      filter_(gate, body_T_camera, time_offset_s, "INS over LCM") {}
+
+lcm_t* LcmPoseSource::subscribed(double now_s) {
+  lcm_t* lcm = connection_.get(now_s);
+  if (lcm != nullptr && lcm != subscribed_to_) {
+    lcm_subscription_t* subscription =
+        lcm_subscribe(lcm, channel_.c_str(), &LcmPoseSource::on_message, this);
+    if (subscription == nullptr) {
+      connection_.reset(now_s);
+      return nullptr;
+    }
+    // LCM keeps 30 unhandled messages per subscription and silently drops the rest:
+    // room for seconds of INS output between two polls.
+    lcm_subscription_set_queue_capacity(subscription, kQueueCapacity);
+    subscribed_to_ = lcm;
+  }
+  return lcm;
+}
+
+void LcmPoseSource::on_message(const lcm_recv_buf_t* rbuf, const char* /*channel*/, void* self) {
+  auto* source = static_cast<LcmPoseSource*>(self);
+  ++source->messages_;
+  InsSolution solution;
+  const InsDecode result =
+      decode_ins_state(rbuf->data, rbuf->data_size, source->world_z_up_, &solution);
+  if (result == InsDecode::kMalformed) {
+    ++source->malformed_;
+    source->filter_.log().log(13, source->now_s_, source->name(),
+                              "malformed ins_state_t (fingerprint or length)");
+    return;
+  }
+  if (result == InsDecode::kWrongFrame) {
+    ++source->wrong_frame_;
+    source->filter_.log().log(12, source->now_s_, source->name(),
+                              "ins_state_t in another world frame than the map's");
+    return;
+  }
+  ++source->solutions_;
+  source->filter_.pass(solution, *source->sink_, source->now_s_);
+}
+
+hal::PollResult LcmPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  now_s_ = static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+  lcm_t* lcm = subscribed(now_s_);
+  if (lcm == nullptr) {
+    filter_.log().log(15, now_s_, name(), "LCM provider not started (retrying with backoff)");
+    return hal::PollResult::kIdle;
+  }
+  sink_ = &sink;
+  const std::int64_t before = messages_;
+  // Bounded: 256 messages a call; the first may wait.
+  for (int i = 0; i < 256; ++i) {
+    const int handled = lcm_handle_timeout(lcm, i == 0 ? wait_ms : 0);
+    if (handled < 0) {
+      connection_.reset(now_s_);
+      subscribed_to_ = nullptr;
+      break;
+    }
+    if (handled == 0) break;
+  }
+  sink_ = nullptr;
+  return messages_ > before ? hal::PollResult::kGotData : hal::PollResult::kIdle;
+}
+
+hal::PoseSourceCounters LcmPoseSource::counters() const {
+  hal::PoseSourceCounters c;
+  c.messages = messages_;
+  c.malformed = malformed_ + wrong_frame_;
+  c.solutions = solutions_;
+  c.poses_out = filter_.poses_out();
+  c.link_errors = connection_.start_failures();
+  c.gate = filter_.gate_counters();
+  return c;
+}
+
+LcmLogPoseSource::LcmLogPoseSource(const std::string& channel, bool world_z_up,
+                                   const InsGateConfig& gate,
+                                   const Eigen::Isometry3d& body_T_camera, double time_offset_s)
+    : channel_(channel),
+      world_z_up_(world_z_up),
+      filter_(gate, body_T_camera, time_offset_s, "INS LCM log") {}
+
+LcmLogPoseSource::~LcmLogPoseSource() {
+  if (log_ != nullptr) lcm_eventlog_destroy(log_);
+}
+
+bool LcmLogPoseSource::open(const std::string& path, std::string* error) {
+  log_ = lcm_eventlog_create(path.c_str(), "r");
+  if (log_ == nullptr) {
+    *error = path + ": cannot open as an LCM log";
+    return false;
+  }
+  return true;
+}
+
+hal::PollResult LcmLogPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
+  if (log_ == nullptr) return hal::PollResult::kEnd;
+  for (int i = 0; i < 4096; ++i) {
+    lcm_eventlog_event_t* event = lcm_eventlog_read_next_event(log_);
+    if (event == nullptr) return hal::PollResult::kEnd;  // end, or a torn last event
+    const double now = static_cast<double>(event->timestamp) * 1e-6;
+    if (event->channellen == static_cast<std::int32_t>(channel_.size()) &&
+        std::memcmp(event->channel, channel_.data(), channel_.size()) == 0) {
+      ++messages_;
+      InsSolution solution;
+      const InsDecode result =
+          decode_ins_state(event->data, static_cast<std::size_t>(std::max(event->datalen, 0)),
+                           world_z_up_, &solution);
+      if (result == InsDecode::kOk) {
+        ++solutions_;
+        filter_.pass(solution, sink, now);
+      } else if (result == InsDecode::kMalformed) {
+        ++malformed_;
+        filter_.log().log(13, now, name(), "malformed ins_state_t (fingerprint or length)");
+      } else {
+        ++wrong_frame_;
+        filter_.log().log(12, now, name(), "ins_state_t in another world frame than the map's");
+      }
+    }
+    lcm_eventlog_free_event(event);
+  }
+  return hal::PollResult::kGotData;
+}
+
+hal::PoseSourceCounters LcmLogPoseSource::counters() const {
+  hal::PoseSourceCounters c;
+  c.messages = messages_;
+  c.malformed = malformed_ + wrong_frame_;
+  c.solutions = solutions_;
+  c.poses_out = filter_.poses_out();
+  c.gate = filter_.gate_counters();
+  return c;
+}
+
+bool LcmPublisher::publish(const char* channel, const void* data, std::size_t size, double now_s) {
+  lcm_t* lcm = connection_.get(now_s);
+  if (lcm == nullptr) {
+    ++provider_down_;
+    return false;
+  }
+  if (lcm_publish(lcm, channel, data, static_cast<unsigned int>(size)) != 0) {
+    ++failed_;
+    return false;
+  }
+  ++published_;
+  return true;
+}
+
+}  // namespace zonemap::lcm_link

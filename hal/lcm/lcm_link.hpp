@@ -1,0 +1,98 @@
+// LCM transports: INS poses from a live LCM bus (any provider URL, e.g.
+// udpm://239.255.76.67:7667?ttl=0) or from an lcm-logger log, and zonemap's
+// outputs (obstacle map, obstacle distances, health) published on LCM. Built on
+// LCM's C API so no std::string is made per message. A provider that fails to
+// start is retried with backoff; mapping never waits for it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "hal/ins/pose_source.hpp"
+
+typedef struct _lcm_t lcm_t;
+typedef struct _lcm_recv_buf_t lcm_recv_buf_t;
+typedef struct _lcm_eventlog_t lcm_eventlog_t;
+
+namespace zonemap::lcm_link {
+
+// An lcm_t that (re)creates itself with exponential backoff.
+class LcmConnection {
+ public:
+  explicit LcmConnection(std::string url, double backoff_min_s = 0.5, double backoff_max_s = 10.0);
+  ~LcmConnection();
+  LcmConnection(const LcmConnection&) = delete;
+  LcmConnection& operator=(const LcmConnection&) = delete;
+  // The lcm_t when the provider is up (creating it when due), else null.
+  lcm_t* get(double now_s);
+  // Drops the provider (after an error); the next get() retries after the backoff.
+  void reset(double now_s);
+  const std::string& url() const { return url_; }
+  std::int64_t start_failures() const { return start_failures_; }
+
+ private:
+  std::string url_;
+  lcm_t* lcm_ = nullptr;
+  double backoff_min_s_, backoff_max_s_, backoff_s_, next_attempt_s_ = -1e300;
+  std::int64_t start_failures_ = 0;
+};
+
+class LcmPoseSource final : public hal::PoseSource {
+ public:
+  LcmPoseSource(const std::string& url, const std::string& channel, bool world_z_up,
+                const InsGateConfig& gate, const Eigen::Isometry3d& body_T_camera,
+                double time_offset_s);
+  hal::PollResult poll(hal::PoseSink& sink, int wait_ms) override;
+  hal::PoseSourceCounters counters() const override;
+  const char* name() const override { return "INS over LCM"; }
+  // For in-process tests (memq://): the provider this source listens on.
+  lcm_t* provider(double now_s) { return subscribed(now_s); }
+  static constexpr int kQueueCapacity = 1024;
+
+ private:
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+  lcm_t* subscribed(double now_s);
+
+  LcmConnection connection_;
+  std::string channel_;
+  bool world_z_up_;
+  hal::InsPoseFilter filter_;
+  lcm_t* subscribed_to_ = nullptr;
+  hal::PoseSink* sink_ = nullptr;  // during poll()
+  double now_s_ = 0.0;
+  std::int64_t messages_ = 0, malformed_ = 0, wrong_frame_ = 0, solutions_ = 0;
+};
+
+class LcmLogPoseSource final : public hal::PoseSource {
+ public:
+  LcmLogPoseSource(const std::string& channel, bool world_z_up, const InsGateConfig& gate,
+                   const Eigen::Isometry3d& body_T_camera, double time_offset_s);
+  ~LcmLogPoseSource() override;
+  bool open(const std::string& path, std::string* error);
+  hal::PollResult poll(hal::PoseSink& sink, int wait_ms) override;
+  hal::PoseSourceCounters counters() const override;
+  const char* name() const override { return "INS LCM log"; }
+
+ private:
+  std::string channel_;
+  bool world_z_up_;
+  hal::InsPoseFilter filter_;
+  lcm_eventlog_t* log_ = nullptr;
+  std::int64_t messages_ = 0, malformed_ = 0, wrong_frame_ = 0, solutions_ = 0;
+};
+
+// Publishes encoded messages; counts what could not be sent.
+class LcmPublisher {
+ public:
+  explicit LcmPublisher(const std::string& url) : connection_(url) {}
+  bool publish(const char* channel, const void* data, std::size_t size, double now_s);
+  std::int64_t published() const { return published_; }
+  std::int64_t failed() const { return failed_; }
+  std::int64_t provider_down() const { return provider_down_; }
+
+ private:
+  LcmConnection connection_;
+  std::int64_t published_ = 0, failed_ = 0, provider_down_ = 0;
+};
+
+}  // namespace zonemap::lcm_link

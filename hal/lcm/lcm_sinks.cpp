@@ -1,0 +1,85 @@
+#include "hal/lcm/lcm_sinks.hpp"
+
+#include <cmath>
+
+namespace zonemap::lcm_link {
+
+LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config)
+    : config_(config), publisher_(config.url), map_(config.max_boxes, config.max_rects_per_box) {
+  health_.num_counters = hal::HealthSnapshot::kMaxNamed;
+  health_.counter_names.assign(hal::HealthSnapshot::kMaxNamed, std::string(63, 'x'));
+  health_.counter_values.assign(hal::HealthSnapshot::kMaxNamed, 0);
+  buffer_.resize(
+      static_cast<std::size_t>(std::max(health_.getEncodedSize(), distance_.getEncodedSize())));
+  for (auto& name : health_.counter_names) name.clear();  // keeps the capacity
+}
+
+void LcmObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
+  if (now_s - last_s_ < 1.0 / config_.rate_hz) return;
+  last_s_ = now_s;
+  const auto utime = static_cast<std::int64_t>(std::llround(update.time_s * 1e6));
+  map_.fill(utime, update.world_T_body.translation(), update.world_z_up, update.boxes, update.count,
+            update.rects, update.rect_offsets, update.rect_counts);
+  const std::uint8_t* bytes = nullptr;
+  const std::size_t size = map_.encode(&bytes);
+  if (size == 0) {
+    ++encode_failures_;
+  } else {
+    publisher_.publish(config_.map_channel.c_str(), bytes, size, now_s);
+  }
+  const ObstacleDistances d = obstacle_distances(update.boxes, update.count, update.world_T_body,
+                                                 update.world_z_up, config_.sectors);
+  distance_ = to_message(d, utime);
+  const int n = distance_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (n <= 0) {
+    ++encode_failures_;
+  } else {
+    publisher_.publish(config_.distance_channel.c_str(), buffer_.data(),
+                       static_cast<std::size_t>(n), now_s);
+  }
+}
+
+void LcmObstacleSink::publish_health(const hal::HealthSnapshot& h, double now_s) {
+  zonemap_lcm::health_t& m = health_;
+  m.utime = static_cast<std::int64_t>(std::llround(h.time_s * 1e6));
+  m.uptime_us = static_cast<std::int64_t>(std::llround(h.uptime_s * 1e6));
+  m.frames_in = h.frames_in;
+  m.frames_mapped = h.frames_mapped;
+  m.frames_rejected = h.frames_rejected;
+  m.frames_skipped_no_pose = h.frames_skipped_no_pose;
+  m.frames_dropped = h.frames_dropped;
+  m.deadline_misses = h.deadline_misses;
+  m.poses_in = h.poses_in;
+  m.poses_rejected = h.poses_rejected;
+  m.heap_allocations_after_init = h.heap_allocations_after_init;
+  m.mapping_ms_p50 = static_cast<float>(h.mapping_ms_p50);
+  m.mapping_ms_p99 = static_cast<float>(h.mapping_ms_p99);
+  m.end_to_end_ms_p50 = static_cast<float>(h.end_to_end_ms_p50);
+  m.end_to_end_ms_p99 = static_cast<float>(h.end_to_end_ms_p99);
+  m.end_to_end_ms_p999 = static_cast<float>(h.end_to_end_ms_p999);
+  m.static_memory_bytes = h.static_memory_bytes;
+  m.rss_bytes = h.rss_bytes;
+  m.zones_allocated = h.zones_allocated;
+  m.features = h.features;
+  m.num_counters = h.named;
+  for (int i = 0; i < h.named; ++i) {
+    // Within the capacity reserved at construction: no allocation.
+    m.counter_names[static_cast<std::size_t>(i)].assign(h.names[i] != nullptr ? h.names[i] : "?");
+    m.counter_values[static_cast<std::size_t>(i)] = h.values[i];
+  }
+  const int n = m.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (n <= 0) {
+    ++encode_failures_;
+    return;
+  }
+  publisher_.publish(config_.health_channel.c_str(), buffer_.data(), static_cast<std::size_t>(n),
+                     now_s);
+}
+
+void LcmObstacleSink::report(hal::HealthSnapshot* h) const {
+  h->add("lcm_out_published", publisher_.published());
+  h->add("lcm_out_failed", publisher_.failed() + encode_failures_);
+  h->add("lcm_out_provider_down", publisher_.provider_down());
+}
+
+}  // namespace zonemap::lcm_link

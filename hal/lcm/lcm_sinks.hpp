@@ -1,0 +1,47 @@
+// zonemap's outputs on LCM: the obstacle map (boxes with footprints), the
+// 72-sector obstacle distances for autopilots, and the periodic health message.
+// Messages are filled in storage sized at construction and encoded into reserved
+// buffers; a provider that is down is retried with backoff (counted).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "hal/lcm/lcm_codec.hpp"
+#include "hal/lcm/lcm_link.hpp"
+#include "hal/output/obstacle_sink.hpp"
+#include "zonemap/obstacle_distance.hpp"
+
+namespace zonemap::lcm_link {
+
+struct LcmOutputConfig {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string map_channel = "OBSTACLE_MAP";
+  std::string distance_channel = "OBSTACLE_DIST";
+  std::string health_channel = "ZONEMAP_HEALTH";
+  double rate_hz = 10.0;
+  std::size_t max_boxes = 512;
+  std::size_t max_rects_per_box = 64;
+  SectorConfig sectors;
+};
+
+class LcmObstacleSink final : public hal::ObstacleSink {
+ public:
+  explicit LcmObstacleSink(const LcmOutputConfig& config);
+  const char* name() const override { return "obstacles and health over LCM"; }
+  void publish(const hal::ObstacleUpdate& update, double now_s) override;
+  void publish_health(const hal::HealthSnapshot& health, double now_s) override;
+  void report(hal::HealthSnapshot* health) const override;
+
+ private:
+  LcmOutputConfig config_;
+  LcmPublisher publisher_;
+  ObstacleMapMessage map_;
+  zonemap_lcm::obstacle_distance_t distance_;
+  zonemap_lcm::health_t health_;
+  std::vector<std::uint8_t> buffer_;  // distance and health messages
+  double last_s_ = -1e300;
+  std::int64_t encode_failures_ = 0;
+};
+
+}  // namespace zonemap::lcm_link

@@ -1,0 +1,60 @@
+// Outputs to the vehicle behind one small interface, called on the pipeline's
+// output thread with buffers the mapping thread filled (no allocation, no
+// blocking: a sink that cannot send counts it and returns).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Geometry>
+
+#include "zonemap/feature_map.hpp"
+
+namespace zonemap::hal {
+
+struct ObstacleUpdate {
+  double time_s = 0.0;  // the newest mapped depth frame's time
+  Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();  // the vehicle
+  bool world_z_up = true;
+  const ObstacleBox* boxes = nullptr;  // obstacles first, then ground
+  std::size_t count = 0;
+  const FootprintRect* rects = nullptr;  // per box: rect_offsets / rect_counts
+  const std::uint32_t* rect_offsets = nullptr;
+  const std::uint32_t* rect_counts = nullptr;
+};
+
+// Every counter of the run, for the periodic health message and stats.json.
+struct HealthSnapshot {
+  double time_s = 0.0, uptime_s = 0.0;
+  std::int64_t frames_in = 0, frames_mapped = 0, frames_rejected = 0, frames_skipped_no_pose = 0;
+  std::int64_t frames_dropped = 0, deadline_misses = 0;
+  std::int64_t poses_in = 0, poses_rejected = 0;
+  std::int64_t heap_allocations_after_init = 0;
+  double mapping_ms_p50 = 0, mapping_ms_p99 = 0;
+  double end_to_end_ms_p50 = 0, end_to_end_ms_p99 = 0, end_to_end_ms_p999 = 0;
+  std::int64_t static_memory_bytes = 0, rss_bytes = 0;
+  std::int32_t zones_allocated = 0, features = 0;
+  // Everything else by name (fixed names, set once).
+  static constexpr int kMaxNamed = 48;
+  const char* names[kMaxNamed] = {};
+  std::int64_t values[kMaxNamed] = {};
+  int named = 0;
+  void add(const char* name, std::int64_t value) {
+    if (named < kMaxNamed) {
+      names[named] = name;
+      values[named++] = value;
+    }
+  }
+};
+
+class ObstacleSink {
+ public:
+  virtual ~ObstacleSink() = default;
+  virtual const char* name() const = 0;
+  virtual void publish(const ObstacleUpdate& update, double now_s) = 0;
+  virtual void publish_health(const HealthSnapshot& /*health*/, double /*now_s*/) {}
+  // Adds this sink's counters to a snapshot (for health and stats.json).
+  virtual void report(HealthSnapshot* /*health*/) const {}
+};
+
+}  // namespace zonemap::hal

@@ -1,0 +1,184 @@
+// LCM over UDP multicast against the real LCM tools, inside a private network
+// namespace with only loopback (ctest runs this binary under `unshare -rn` with
+// multicast routed to lo): no traffic ever leaves the namespace.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <lcm/eventlog.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "hal/lcm/lcm_codec.hpp"
+#include "hal/lcm/lcm_link.hpp"
+#include "hal/os/allocation_counter.hpp"
+
+extern char** environ;
+
+using namespace zonemap;
+using namespace zonemap::lcm_link;
+
+namespace {
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+pid_t start(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  return pid;
+}
+
+int finish(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::vector<std::uint8_t> ins_bytes(double t, double x) {
+  InsSolution s;
+  s.time_s = t;
+  s.position_m = {x, 0.0, -25.0};
+  s.attitude_valid = s.position_valid = true;
+  s.position_sigma_m = 0.2;
+  const auto m = to_message(s, false, static_cast<std::int64_t>(t * 1e6));
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+struct CollectingSink : hal::PoseSink {
+  std::vector<PoseSample> poses;
+  void push(const PoseSample& p) override {
+    if (poses.size() < poses.capacity()) poses.push_back(p);  // reserved: no allocation
+  }
+};
+
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Events on `channel` in an LCM log (the logger may still be writing it).
+std::vector<std::vector<std::uint8_t>> read_log(const std::string& path, const char* channel) {
+  std::vector<std::vector<std::uint8_t>> out;
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "r");
+  if (log == nullptr) return out;
+  while (lcm_eventlog_event_t* e = lcm_eventlog_read_next_event(log)) {
+    if (std::string(e->channel, static_cast<std::size_t>(e->channellen)) == channel) {
+      const auto* d = static_cast<const std::uint8_t*>(e->data);
+      out.emplace_back(d, d + e->datalen);
+    }
+    lcm_eventlog_free_event(e);
+  }
+  lcm_eventlog_destroy(log);
+  return out;
+}
+
+}  // namespace
+
+TEST(LcmMulticast, PublisherToPoseSourceAndTheReceivePathsAllocations) {
+  LcmPoseSource source(kUrl, "INS_STATE", false, {}, Eigen::Isometry3d::Identity(), 0.0);
+  CollectingSink sink;
+  sink.poses.reserve(1000);
+  ASSERT_NE(source.provider(0.0), nullptr) << "udpm provider did not start (multicast route?)";
+  LcmPublisher publisher(kUrl);
+  const int n = 200;
+  for (int i = 0; i < n; ++i) {
+    const auto bytes = ins_bytes(1.0 + 0.01 * i, 0.1 * i);
+    ASSERT_TRUE(publisher.publish("INS_STATE", bytes.data(), bytes.size(), 0.0));
+  }
+  std::int64_t allocations = 0;
+  const double deadline = now_s() + 10.0;
+  while (static_cast<int>(sink.poses.size()) < n && now_s() < deadline) {
+    os::AllocationScope scope;
+    source.poll(sink, 100);
+    allocations += scope.counted().allocations;
+  }
+  ASSERT_EQ(static_cast<int>(sink.poses.size()), n);
+  EXPECT_NEAR(sink.poses.back().position.x(), 0.1 * (n - 1), 1e-12);
+  // LCM's own receive path: reported, and held to what it does today.
+  std::printf("allocations in LcmPoseSource::poll over %d udpm messages: %lld\n", n,
+              static_cast<long long>(allocations));
+  RecordProperty("udpm_receive_allocations", static_cast<int>(allocations));
+  EXPECT_LE(allocations, 2);  // measured: 1 (a first-call set-up inside lcm_handle)
+}
+
+TEST(LcmMulticast, LcmLogplayerFeedsThePoseSource) {
+  const std::string path = ::testing::TempDir() + "/player.lcmlog";
+  {
+    lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+    ASSERT_NE(log, nullptr);
+    for (int i = 0; i < 40; ++i) {
+      auto bytes = ins_bytes(3.0 + 0.005 * i, 1.0 * i);
+      lcm_eventlog_event_t e{};
+      e.timestamp = 3'000'000 + 5'000 * i;
+      e.channellen = 9;
+      e.channel = const_cast<char*>("INS_STATE");
+      e.datalen = static_cast<std::int32_t>(bytes.size());
+      e.data = bytes.data();
+      ASSERT_EQ(lcm_eventlog_write_event(log, &e), 0);
+    }
+    lcm_eventlog_destroy(log);
+  }
+  LcmPoseSource source(kUrl, "INS_STATE", false, {}, Eigen::Isometry3d::Identity(), 0.0);
+  CollectingSink sink;
+  sink.poses.reserve(100);
+  ASSERT_NE(source.provider(0.0), nullptr);  // subscribed before the player starts
+  const pid_t player = start({"lcm-logplayer", "-l", kUrl, path});
+  ASSERT_GT(player, 0);
+  ASSERT_EQ(finish(player), 0);
+  while (source.poll(sink, 300) != hal::PollResult::kIdle) {
+  }
+  ASSERT_EQ(sink.poses.size(), 40u);
+  EXPECT_NEAR(sink.poses[39].position.x(), 39.0, 1e-12);
+  EXPECT_NEAR(sink.poses[39].time_s, 3.195, 1e-9);
+}
+
+TEST(LcmMulticast, LcmLoggerRecordsOurObstacleMap) {
+  const std::string path = ::testing::TempDir() + "/logger-" + std::to_string(getpid()) + ".lcmlog";
+  unlink(path.c_str());
+  const pid_t logger = start(
+      {"lcm-logger", "-q", "-f", "--flush-interval=10", std::string("--lcm-url=") + kUrl, path});
+  ASSERT_GT(logger, 0);
+  LcmPublisher publisher(kUrl);
+  const double deadline = now_s() + 20.0;
+  // A probe until the logger shows it is listening (its log holds one).
+  while (read_log(path, "PROBE").empty()) {
+    ASSERT_LT(now_s(), deadline) << "lcm-logger never logged the probe";
+    publisher.publish("PROBE", "x", 1, 0.0);
+    usleep(20'000);  // paces the probes (not a synchronisation: the loop checks the log)
+  }
+  std::vector<ObstacleBox> boxes(3);
+  for (int i = 0; i < 3; ++i) {
+    boxes[static_cast<std::size_t>(i)].id = static_cast<std::uint32_t>(i + 1);
+    boxes[static_cast<std::size_t>(i)].min = Eigen::Vector3d(10.0 * i, 0, -5);
+    boxes[static_cast<std::size_t>(i)].max = Eigen::Vector3d(10.0 * i + 1, 1, 0);
+  }
+  ObstacleMapMessage map(64, 16);
+  map.fill(42, Eigen::Vector3d::Zero(), false, boxes.data(), boxes.size(), nullptr, nullptr,
+           nullptr);
+  const std::uint8_t* bytes = nullptr;
+  const std::size_t size = map.encode(&bytes);
+  ASSERT_TRUE(publisher.publish("OBSTACLE_MAP", bytes, size, 0.0));
+  while (read_log(path, "OBSTACLE_MAP").empty()) {
+    ASSERT_LT(now_s(), deadline) << "lcm-logger never logged the map";
+    usleep(20'000);
+  }
+  kill(logger, SIGINT);
+  finish(logger);
+  const auto logged = read_log(path, "OBSTACLE_MAP");
+  ASSERT_EQ(logged.size(), 1u);
+  zonemap_lcm::obstacle_map_t decoded;
+  ASSERT_GT(decoded.decode(logged[0].data(), 0, static_cast<int>(logged[0].size())), 0);
+  ASSERT_EQ(decoded.num_boxes, 3);
+  EXPECT_EQ(decoded.boxes[2].min[0], 20.0);
+  EXPECT_EQ(decoded.utime, 42);
+}

@@ -171,8 +171,15 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"memory_bytes\": {\"zone_pool\": " << s.zone_pool_bytes
       << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
       << ", \"depth_table\": " << s.depth_table_bytes << ", \"pipeline\": " << s.pipeline_bytes
-      << "}\n"
-      << "}\n";
+      << "}";
+  if (!s.links.empty()) {  // the daemon: vehicle-link counters by name
+    out << ",\n  \"links\": {";
+    for (std::size_t i = 0; i < s.links.size(); ++i) {
+      out << (i == 0 ? "" : ", ") << "\"" << s.links[i].first << "\": " << s.links[i].second;
+    }
+    out << "}";
+  }
+  out << "\n}\n";
   out.close();
   if (!out) {
     *error = path + ": write failed";

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -66,6 +67,7 @@ struct RunStats {
   double end_to_end_ms_max = 0.0;
   double queue_ms_p99 = 0.0;
   long rss_after_start = 0, rss_at_end = 0;
+  std::vector<std::pair<std::string, std::int64_t>> links;  // vehicle-link counters (daemon)
 };
 
 // boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells

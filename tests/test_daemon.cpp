@@ -1,0 +1,243 @@
+// The onboard daemon end to end: its configuration (strict, --check-config), a
+// generated flight with poses from an LCM log through every stage to boxes.csv
+// (the same boxes as the single-threaded replay) and to MAVLink
+// OBSTACLE_DISTANCE over loopback UDP, and a clean stop on SIGTERM.
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <lcm/eventlog.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "hal/lcm/lcm_codec.hpp"
+#include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "hal/output/run_outputs.hpp"
+#include "test_support.hpp"
+#include "tools/daemon/vehicle_config.hpp"
+#include "tools/replay/replay_run.hpp"
+
+extern char** environ;
+
+using namespace zonemap;
+
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The sequence's camera poses as an INS would log them (body = camera here).
+void write_ins_log(const hal::ReplaySequence& sequence, const std::string& path) {
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  for (const PoseSample& p : sequence.poses().samples()) {
+    InsSolution s;
+    s.time_s = p.time_s;
+    s.position_m = p.position;
+    s.attitude = p.attitude;
+    s.attitude_valid = s.position_valid = true;
+    s.position_sigma_m = 0.1;
+    const auto utime = static_cast<std::int64_t>(std::llround(p.time_s * 1e6));
+    const auto m = lcm_link::to_message(s, true, utime);
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    lcm_eventlog_event_t e{};
+    e.timestamp = utime;
+    e.channellen = 9;
+    e.channel = const_cast<char*>("INS_STATE");
+    e.datalen = static_cast<std::int32_t>(bytes.size());
+    e.data = bytes.data();
+    ASSERT_EQ(lcm_eventlog_write_event(log, &e), 0);
+  }
+  lcm_eventlog_destroy(log);
+}
+
+// A UDP socket on loopback standing in for the autopilot's MAVLink router.
+struct UdpReceiver {
+  int fd = -1;
+  int port = 0;
+  UdpReceiver() {
+    fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+    socklen_t len = sizeof a;
+    getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+  }
+  ~UdpReceiver() { close(fd); }
+  // Next datagram within timeout_ms, or empty.
+  std::vector<std::uint8_t> receive(int timeout_ms) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, timeout_ms) <= 0) return {};
+    std::vector<std::uint8_t> buf(512);
+    const ssize_t n = recv(fd, buf.data(), buf.size(), 0);
+    buf.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+    return buf;
+  }
+};
+
+pid_t spawn_daemon(const std::vector<std::string>& args, const std::string& stderr_path) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 2, stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
+  std::vector<std::string> all = {ZONEMAP_DAEMON_PATH};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -100 - WTERMSIG(status);
+}
+
+struct Flight {
+  zonemap::testing::TempDir dir;
+  std::string config;  // mapping config
+  std::string sequence;
+};
+
+void make_flight(Flight* f, double rate_hz, std::size_t frames) {
+  f->sequence = f->dir / "seq";
+  f->config =
+      zonemap::testing::write_test_scenario("posts-through", f->sequence, rate_hz, 4, frames);
+  ASSERT_FALSE(f->config.empty());
+  hal::ReplaySequence sequence;
+  MapConfig map;
+  std::string error;
+  ASSERT_TRUE(sequence.open(f->sequence, "", map, &error)) << error;
+  write_ins_log(sequence, f->dir / "ins.lcmlog");
+}
+
+std::string vehicle_yaml(const Flight& f, int mavlink_port, double replay_rate_hz) {
+  std::ostringstream y;
+  y << "mapping: " << f.config << "\n"
+    << "frames: {source: replay, sequence: " << f.sequence << ", rate_hz: " << replay_rate_hz
+    << "}\n"
+    << "poses: {source: lcm_log, log: " << (f.dir / "ins.lcmlog") << ", lcm_channel: INS_STATE}\n"
+    << "outputs:\n"
+    << "  directory: " << (f.dir / "out") << "\n"
+    << "  health_period_s: 0.5\n"
+    << "  mavlink: {host: 127.0.0.1, port: " << mavlink_port << ", rate_hz: 50}\n";
+  return y.str();
+}
+
+}  // namespace
+
+TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
+  zonemap::testing::TempDir dir;
+  const std::string path = dir / "vehicle.yaml";
+  std::ofstream(path) << "mapping: flight.yaml\nframes: {source: replay, sequence: seq}\n"
+                         "poses: {source: can, can_profile: sbg-ecan, byte_order: big,\n"
+                         "        ids: {info: 0x230}, origin: [48.1, 11.5, 520.0]}\n";
+  daemon::VehicleConfig c;
+  std::string error;
+  ASSERT_TRUE(daemon::load_vehicle_config(path, &c, &error)) << error;
+  EXPECT_EQ(c.mapping_path, dir / "flight.yaml");
+  EXPECT_EQ(c.sequence_dir, dir / "seq");
+  EXPECT_FALSE(c.can_profile.little_endian);
+  EXPECT_EQ(c.can_profile.id_info, 0x230u);
+  EXPECT_TRUE(c.can_profile.has_origin);
+  const std::pair<const char*, const char*> bad[] = {
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nposes: {source: gps}\n",
+       "vehicle.yaml:3: poses.source must be one of"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s, speed: 2}\n",
+       "vehicle.yaml:2: unknown key 'speed'"},
+      {"frames: {source: replay, sequence: s}\n", "'mapping:'"},
+      {"mapping: m.yaml\nframes: {source: replay}\n", "needs frames.sequence"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\n"
+       "poses: {source: can, ids: {info: 0x40000000}}\n",
+       "vehicle.yaml:3: bad value for 'info'"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\noutputs: {mavlink: {port: x}}\n",
+       "vehicle.yaml:3: bad value for 'port'"}};
+  for (const auto& [text, expected] : bad) {
+    std::ofstream(path) << text;
+    EXPECT_FALSE(daemon::load_vehicle_config(path, &c, &error)) << text;
+    EXPECT_NE(error.find(expected), std::string::npos) << error;
+  }
+}
+
+TEST(Daemon, ReplayWithLcmLogPosesGivesTheReplaysBoxesAndMavlinkOut) {
+  Flight f;
+  make_flight(&f, 4.0, 40);
+  UdpReceiver autopilot;
+  const std::string path = f.dir / "vehicle.yaml";
+  std::ofstream(path) << vehicle_yaml(f, autopilot.port, 0.0);
+  // --check-config: everything opened and reserved, nothing run.
+  EXPECT_EQ(wait_exit(spawn_daemon({"--config", path, "--check-config"}, f.dir / "check.log")), 0);
+  EXPECT_NE(slurp(f.dir / "check.log").find("configuration OK"), std::string::npos);
+  EXPECT_EQ(wait_exit(spawn_daemon({"--config", path}, f.dir / "run.log")), 0)
+      << slurp(f.dir / "run.log");
+
+  // The single-threaded replay of the same flight (poses from groundtruth.txt).
+  tools::ReplayRun replay;
+  tools::ReplayOptions options;
+  options.sequence_dir = f.sequence;
+  options.config_path = f.config;
+  options.quiet = true;
+  std::string error;
+  ASSERT_TRUE(replay.open(options, &error)) << error;
+  replay.run();
+  const std::vector<ObstacleBox> expected = replay.boxes(true);
+  ASSERT_TRUE(
+      hal::write_boxes_csv(f.dir / "replay-boxes.csv", expected.data(), expected.size(), &error));
+  EXPECT_EQ(slurp(f.dir / "out/boxes.csv"), slurp(f.dir / "replay-boxes.csv"));
+  const std::string stats = slurp(f.dir / "out/stats.json");
+  EXPECT_NE(stats.find("\"frames_mapped\": 40"), std::string::npos) << stats;
+  EXPECT_NE(stats.find("\"heap_allocations_after_init\": 0,"), std::string::npos) << stats;
+  EXPECT_NE(stats.find("\"ins_poses_out\": 40"), std::string::npos) << stats;
+
+  // OBSTACLE_DISTANCE frames reached the "autopilot", valid, with the posts ahead.
+  int frames = 0, with_obstacle = 0;
+  for (auto d = autopilot.receive(100); !d.empty(); d = autopilot.receive(100)) {
+    mavlink::DecodedObstacleDistance m;
+    ASSERT_TRUE(mavlink::decode_obstacle_distance(d.data(), d.size(), &m));
+    ++frames;
+    for (std::uint16_t cm : m.distances) {
+      if (cm <= m.max_distance) {
+        ++with_obstacle;
+        break;
+      }
+    }
+  }
+  EXPECT_GE(frames, 5);
+  EXPECT_GE(with_obstacle, 1);
+}
+
+TEST(Daemon, SigtermEndsTheRunCleanlyWithOutputs) {
+  Flight f;
+  make_flight(&f, 4.0, 40);
+  UdpReceiver autopilot;
+  const std::string path = f.dir / "vehicle.yaml";
+  std::ofstream(path) << vehicle_yaml(f, autopilot.port, 4.0);  // paced: 10 s of flight
+  const pid_t pid = spawn_daemon({"--config", path}, f.dir / "run.log");
+  ASSERT_GT(pid, 0);
+  // The first MAVLink frame shows it is mapping; then the signal.
+  ASSERT_FALSE(autopilot.receive(30000).empty()) << slurp(f.dir / "run.log");
+  kill(pid, SIGTERM);
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(f.dir / "run.log");
+  const std::string stats = slurp(f.dir / "out/stats.json");
+  EXPECT_NE(stats.find("\"stopped_by_signal\": 1"), std::string::npos) << stats;
+  EXPECT_EQ(stats.find("\"frames_in\": 40,"), std::string::npos) << "stopped early: " << stats;
+  EXPECT_FALSE(slurp(f.dir / "out/boxes.csv").empty());
+}

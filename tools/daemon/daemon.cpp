@@ -1,0 +1,246 @@
+#include "tools/daemon/daemon.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "hal/can/can_pose_source.hpp"
+#include "hal/can/obstacle_can_sink.hpp"
+#include "hal/lcm/lcm_link.hpp"
+#include "hal/lcm/lcm_sinks.hpp"
+#include "hal/mavlink/mavlink_udp_sink.hpp"
+#include "hal/output/run_outputs.hpp"
+#include "hal/replay/yaml_config.hpp"
+
+namespace zonemap::daemon {
+namespace {
+
+// Collects a log's poses (replayed with the frames, like groundtruth.txt).
+struct TrackSink final : hal::PoseSink {
+  PoseTrack* track;
+  std::int64_t refused = 0;
+  void push(const PoseSample& p) override {
+    if (!track->append(p)) ++refused;
+  }
+};
+
+}  // namespace
+
+VehicleDaemon::~VehicleDaemon() = default;
+
+bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
+  config_ = config;
+  if (!hal::load_map_config(config.mapping_path, &map_config_, error)) return false;
+  using Frames = VehicleConfig::FrameSourceKind;
+  using Poses = VehicleConfig::PoseSourceKind;
+  if (config.frames == Frames::kReplay) {
+    if (!sequence_.open(config.sequence_dir, config.camera_path, map_config_, error)) return false;
+    camera_ = sequence_.camera();
+    frames_ = std::make_unique<hal::ReplayFrameSource>(sequence_, config.replay_rate_hz);
+  } else {
+    *error = config.path + ": frames.source v4l2 is not available in this build yet";
+    return false;
+  }
+  const bool z_up = camera_.world_z_up;
+  const Eigen::Isometry3d& mount = camera_.body_T_camera;
+  switch (config.poses) {
+    case Poses::kSequence:
+      if (sequence_.poses().size() == 0) {
+        *error = config.sequence_dir + ": no usable pose in groundtruth.txt";
+        return false;
+      }
+      replay_poses_ = &sequence_.poses();
+      break;
+    case Poses::kLcmLog:
+    case Poses::kCandump: {
+      std::unique_ptr<hal::PoseSource> log;
+      if (config.poses == Poses::kLcmLog) {
+        auto lcm = std::make_unique<lcm_link::LcmLogPoseSource>(
+            config.lcm_channel, z_up, config.gate, mount, config.time_offset_s);
+        if (!lcm->open(config.pose_log_path, error)) return false;
+        log = std::move(lcm);
+      } else {
+        auto candump = std::make_unique<can::CandumpPoseSource>(config.can_profile, config.gate,
+                                                                mount, config.time_offset_s);
+        if (!candump->open(config.pose_log_path, error)) return false;
+        log = std::move(candump);
+      }
+      // A log is read whole at start and replayed with the frames.
+      log_poses_ = PoseTrack(map_config_.pose_max_gap_s, map_config_.pose_tolerance_s);
+      TrackSink sink;
+      sink.track = &log_poses_;
+      while (log->poll(sink, 0) != hal::PollResult::kEnd) {
+      }
+      pose_counters_ = log->counters();
+      if (log_poses_.size() == 0) {
+        *error = config.pose_log_path + ": no usable INS solution";
+        return false;
+      }
+      replay_poses_ = &log_poses_;
+      break;
+    }
+    case Poses::kLcm:
+      live_poses_ = std::make_unique<lcm_link::LcmPoseSource>(
+          config.lcm_url, config.lcm_channel, z_up, config.gate, mount, config.time_offset_s);
+      break;
+    case Poses::kCan:
+      live_poses_ = std::make_unique<can::SocketCanPoseSource>(
+          config.can_interface, config.can_profile, config.gate, mount,
+          config.time_offset_s + can::SocketCanPoseSource::monotonic_offset());
+      break;
+  }
+
+  mapper_ = std::make_unique<Mapper>(map_config_, camera_);
+  features_ = std::make_unique<FeatureMap>(map_config_, z_up);
+  mapper_->zones().add_observer(features_.get());
+  const std::size_t max_boxes = features_->capacity();
+  if (config.can_output) {
+    sinks_.push_back(std::make_unique<can::CanObstacleSink>(config.can_output_interface,
+                                                            config.can_obstacles, max_boxes));
+  }
+  if (config.lcm_output) sinks_.push_back(std::make_unique<lcm_link::LcmObstacleSink>(config.lcm));
+  if (config.mavlink_output) {
+    auto mavlink = std::make_unique<mavlink::MavlinkUdpSink>(config.mavlink);
+    if (!mavlink->open(error)) return false;
+    sinks_.push_back(std::move(mavlink));
+  }
+  frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
+
+  runtime::PipelineOptions options = runtime::PipelineOptions::from(map_config_.runtime);
+  options.lossless = !config.live;
+  options.health_period_s = config.health_period_s;
+  options.body_T_camera = mount;
+  options.world_z_up = z_up;
+  std::vector<hal::ObstacleSink*> sinks;
+  for (auto& s : sinks_) sinks.push_back(s.get());
+  pipeline_ = std::make_unique<runtime::Pipeline>(
+      *frames_, replay_poses_, live_poses_.get(), sinks, *mapper_, *features_,
+      static_cast<runtime::MappingHooks&>(*this), options);
+  return true;
+}
+
+std::string VehicleDaemon::describe() const {
+  std::ostringstream out;
+  const auto mib = [](std::size_t b) { return static_cast<double>(b) / 1048576.0; };
+  out.precision(2);
+  out << std::fixed;
+  out << "zonemap: frames from "
+      << (config_.frames == VehicleConfig::FrameSourceKind::kReplay ? config_.sequence_dir
+                                                                    : config_.v4l2_device)
+      << "\nzonemap: poses from "
+      << (live_poses_ ? live_poses_->name()
+                      : (replay_poses_ == &log_poses_ ? config_.pose_log_path.c_str()
+                                                      : "the sequence's groundtruth.txt"))
+      << "\n";
+  for (const auto& s : sinks_) out << "zonemap: output: " << s->name() << "\n";
+  out << "zonemap: reserved " << mib(mapper_->zones().reserved_bytes()) << " MiB zone pool, "
+      << mib(mapper_->local_grid().reserved_bytes()) << " MiB local grid, "
+      << mib(mapper_->depth_table_bytes()) << " MiB depth table, "
+      << mib(features_->reserved_bytes()) << " MiB feature map, "
+      << mib(pipeline_->reserved_bytes()) << " MiB pipeline; in all "
+      << mib(mapper_->reserved_bytes() + features_->reserved_bytes() + pipeline_->reserved_bytes())
+      << " MiB\n";
+  return out.str();
+}
+
+void VehicleDaemon::after_frame(std::size_t /*frame_index*/, const Eigen::Isometry3d& /*pose*/,
+                                const FrameReport& /*report*/, double mapping_ms) {
+  ++frames_mapped_;
+  if (frame_ms_.size() < frame_ms_.capacity()) frame_ms_.push_back(mapping_ms);
+  // Periodic extraction, one zone per call (bounded work per frame).
+  const std::int64_t stride = std::max(1, map_config_.features.extract_every_frames / kZonesHeld);
+  if (frames_mapped_ % stride != 0) return;
+  const int live = mapper_->zones().live_zone_count();
+  if (live == 0) return;
+  const int pick = static_cast<int>(next_zone_++ % static_cast<std::uint64_t>(live));
+  int k = 0;
+  mapper_->zones().for_each_live_zone([&](ZoneView& zone) {
+    if (k++ == pick) features_->extract(zone);
+  });
+}
+
+void VehicleDaemon::run() {
+  pipeline_->run();
+  stats_ = pipeline_->stats();
+  if (live_poses_) pose_counters_ = live_poses_->counters();
+  // Every live zone's objects into the feature map for the final boxes.
+  mapper_->zones().for_each_live_zone([this](ZoneView& zone) { features_->extract(zone); });
+}
+
+void VehicleDaemon::stop() {
+  if (pipeline_) pipeline_->stop();
+}
+
+bool VehicleDaemon::write_outputs(std::string* error) {
+  if (config_.output_dir.empty()) return true;
+  std::error_code ec;
+  std::filesystem::create_directories(config_.output_dir, ec);
+  std::vector<ObstacleBox> boxes(features_->capacity());
+  boxes.resize(features_->merged(boxes.data(), boxes.size(), true));
+  if (!hal::write_boxes_csv(config_.output_dir + "/boxes.csv", boxes.data(), boxes.size(), error)) {
+    return false;
+  }
+  hal::RunStats s;
+  s.frames_in = stats_.frames_in;
+  s.frames_mapped = stats_.frames_mapped;
+  s.frames_rejected = stats_.frames_rejected;
+  s.frames_skipped_no_pose = stats_.frames_skipped_no_pose;
+  s.frame_ms_p50 = hal::percentile(frame_ms_, 0.50);
+  s.frame_ms_p99 = hal::percentile(frame_ms_, 0.99);
+  s.frame_ms_max = frame_ms_.empty() ? 0.0 : *std::max_element(frame_ms_.begin(), frame_ms_.end());
+  s.heap_allocations_after_init = stats_.mapping_thread_allocations +
+                                  stats_.output_thread_allocations + stats_.ins_thread_allocations;
+  s.heap_frees_after_init =
+      stats_.mapping_thread_frees + stats_.output_thread_frees + stats_.ins_thread_frees;
+  s.zone_pool_bytes = mapper_->zones().reserved_bytes();
+  s.local_grid_bytes = mapper_->local_grid().reserved_bytes();
+  s.feature_map_bytes = features_->reserved_bytes();
+  s.depth_table_bytes = mapper_->depth_table_bytes();
+  s.pipeline_bytes = pipeline_->reserved_bytes();
+  s.static_memory_bytes =
+      mapper_->reserved_bytes() + features_->reserved_bytes() + pipeline_->reserved_bytes();
+  s.zones_allocated = mapper_->zones().zones_allocated();
+  s.zones_discarded = mapper_->zones().zones_discarded();
+  s.features = static_cast<std::int64_t>(features_->count());
+  s.feature_counters = features_->counters();
+  s.cell_size_m = map_config_.cell_size_m;
+  s.pipeline = true;
+  s.dropped_mapper_behind = stats_.dropped_mapper_behind;
+  s.dropped_pool_full = stats_.dropped_pool_full;
+  s.pose_waits = stats_.pose_waits;
+  s.outputs_published = stats_.outputs_published;
+  s.outputs_skipped = stats_.outputs_skipped;
+  s.deadline_misses = stats_.deadline_misses;
+  s.end_to_end_ms_p50 = stats_.end_to_end.percentile(0.50);
+  s.end_to_end_ms_p99 = stats_.end_to_end.percentile(0.99);
+  s.end_to_end_ms_p999 = stats_.end_to_end.percentile(0.999);
+  s.end_to_end_ms_max = stats_.end_to_end.max_ms();
+  s.queue_ms_p99 = stats_.acquire_to_map_start.percentile(0.99);
+  s.rss_after_start = stats_.rss_after_start;
+  s.rss_at_end = stats_.rss_at_end;
+  s.poses_rejected = pose_counters_.gate.rejected_total() + pose_counters_.malformed;
+  // Every sink's and the INS source's counters under "links".
+  hal::HealthSnapshot links;
+  links.add("ins_messages", pose_counters_.messages);
+  links.add("ins_malformed", pose_counters_.malformed);
+  links.add("ins_solutions", pose_counters_.solutions);
+  links.add("ins_poses_out", pose_counters_.poses_out);
+  links.add("ins_link_errors", pose_counters_.link_errors);
+  links.add("ins_reanchors", pose_counters_.gate.reanchors);
+  for (int r = 0; r < static_cast<int>(InsRejection::kCount); ++r) {
+    static const char* const kNames[] = {"ins_rejected_not_finite", "ins_rejected_quaternion",
+                                         "ins_rejected_flags",      "ins_rejected_time",
+                                         "ins_rejected_jump",       "ins_rejected_accuracy"};
+    links.add(kNames[r], pose_counters_.gate.rejected[static_cast<std::size_t>(r)]);
+  }
+  links.add("frames_lost", stats_.frames_lost);
+  links.add("health_published", stats_.health_published);
+  links.add("stopped_by_signal", stats_.stopped ? 1 : 0);
+  for (const auto& sink : sinks_) sink->report(&links);
+  for (int i = 0; i < links.named; ++i) s.links.emplace_back(links.names[i], links.values[i]);
+  return hal::write_stats_json(config_.output_dir + "/stats.json", s, error);
+}
+
+}  // namespace zonemap::daemon

@@ -1,0 +1,58 @@
+// The onboard daemon: frames, poses and outputs chosen by config/vehicle.yaml,
+// wired through the threaded pipeline; boxes.csv and stats.json at the end.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hal/frames/frame_source.hpp"
+#include "hal/ins/pose_source.hpp"
+#include "hal/output/obstacle_sink.hpp"
+#include "hal/replay/sequence.hpp"
+#include "hal/runtime/pipeline.hpp"
+#include "tools/daemon/vehicle_config.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/mapper.hpp"
+
+namespace zonemap::daemon {
+
+class VehicleDaemon : private runtime::MappingHooks {
+ public:
+  ~VehicleDaemon() override;
+  // Loads, checks and reserves everything; opens every source and sink. False
+  // with a message naming file (and line) or device when something is unusable.
+  bool open(const VehicleConfig& config, std::string* error);
+  // A start-up report: sources, sinks, memory by component.
+  std::string describe() const;
+  // Runs until the frames end or stop() (any thread, e.g. a signal handler's flag).
+  void run();
+  void stop();
+  // boxes.csv and stats.json into outputs.directory (if set).
+  bool write_outputs(std::string* error);
+  const runtime::PipelineStats& pipeline_stats() const { return stats_; }
+
+ private:
+  void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
+                   const FrameReport& report, double mapping_ms) override;
+
+  VehicleConfig config_;
+  MapConfig map_config_;
+  CameraModel camera_;
+  hal::ReplaySequence sequence_;
+  std::unique_ptr<hal::FrameSource> frames_;
+  std::unique_ptr<hal::PoseSource> live_poses_;
+  PoseTrack log_poses_{0.1, 0.02};
+  const PoseTrack* replay_poses_ = nullptr;
+  std::vector<std::unique_ptr<hal::ObstacleSink>> sinks_;
+  std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<FeatureMap> features_;
+  std::unique_ptr<runtime::Pipeline> pipeline_;
+  runtime::PipelineStats stats_;
+  hal::PoseSourceCounters pose_counters_;
+  std::uint64_t next_zone_ = 0;
+  std::int64_t frames_mapped_ = 0;
+  std::vector<double> frame_ms_;
+};
+
+}  // namespace zonemap::daemon

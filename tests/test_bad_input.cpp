@@ -2,6 +2,8 @@
 // a counted rejection. Never a crash, never a frame mapped with a bad pose.
 #include <gtest/gtest.h>
 
+#include "hal/v4l2/v4l2_source.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <vector>
@@ -289,3 +291,23 @@ TEST(BadSequence, MissingFilesAreErrorsNamingTheFile) {
 
 }  // namespace
 }  // namespace zonemap
+
+TEST(BadInput, V4l2BufferChecksRefuseWrongSizeAndFlaggedFramesAndCountGaps) {
+  using zonemap::v4l2::check_buffer;
+  const std::uint32_t size = 640 * 480 * 2;
+  auto v = check_buffer(false, size, size, 10, true, 9);
+  EXPECT_TRUE(v.usable);
+  EXPECT_EQ(v.lost_before, 0);
+  v = check_buffer(false, size - 2, size, 11, true, 10);
+  EXPECT_FALSE(v.usable);
+  EXPECT_NE(std::string(v.why).find("wrong size"), std::string::npos);
+  v = check_buffer(true, size, size, 12, true, 11);
+  EXPECT_FALSE(v.usable);
+  v = check_buffer(false, size, size, 20, true, 12);  // 7 frames never delivered
+  EXPECT_TRUE(v.usable);
+  EXPECT_EQ(v.lost_before, 7);
+  v = check_buffer(false, size, size, 2, true, 0xFFFFFFFEu);  // the counter wrapped
+  EXPECT_EQ(v.lost_before, 3);
+  v = check_buffer(false, size, size, 5, true, 9);  // restarted stream: no "lost" flood
+  EXPECT_EQ(v.lost_before, 0);
+}

@@ -13,6 +13,7 @@
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/yaml_config.hpp"
+#include "hal/v4l2/v4l2_source.hpp"
 
 namespace zonemap::daemon {
 namespace {
@@ -40,8 +41,15 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
     camera_ = sequence_.camera();
     frames_ = std::make_unique<hal::ReplayFrameSource>(sequence_, config.replay_rate_hz);
   } else {
-    *error = config.path + ": frames.source v4l2 is not available in this build yet";
-    return false;
+    if (!hal::load_camera_yaml(config.camera_path, &camera_, error)) return false;
+    if (map_config_.depth_scale_override > 0.0)
+      camera_.depth_scale = map_config_.depth_scale_override;
+    v4l2::V4l2Config v;
+    v.device = config.v4l2_device;
+    v.format = config.v4l2_format == "Z16" ? v4l2::DepthFormat::kZ16 : v4l2::DepthFormat::kY16;
+    auto camera = std::make_unique<v4l2::V4l2FrameSource>(v, camera_);
+    if (!camera->open(error)) return false;
+    frames_ = std::move(camera);
   }
   const bool z_up = camera_.world_z_up;
   const Eigen::Isometry3d& mount = camera_.body_T_camera;

@@ -241,3 +241,37 @@ TEST(Daemon, SigtermEndsTheRunCleanlyWithOutputs) {
   EXPECT_EQ(stats.find("\"frames_in\": 40,"), std::string::npos) << "stopped early: " << stats;
   EXPECT_FALSE(slurp(f.dir / "out/boxes.csv").empty());
 }
+
+TEST(ReplaySequence, PosesFromInsLcmlogWhenThereIsNoGroundTruthMapTheSame) {
+  Flight f;
+  make_flight(&f, 4.0, 24);
+  auto boxes_of = [&](const std::string& sequence) {
+    tools::ReplayRun run;
+    tools::ReplayOptions options;
+    options.sequence_dir = sequence;
+    options.config_path = f.config;
+    options.quiet = true;
+    std::string error;
+    EXPECT_TRUE(run.open(options, &error)) << error;
+    run.run();
+    EXPECT_EQ(run.stats().frames_mapped, 24);
+    return run.boxes(true);
+  };
+  const std::vector<ObstacleBox> with_truth = boxes_of(f.sequence);
+  // The same sequence with the INS log instead of groundtruth.txt.
+  std::filesystem::rename(f.sequence + "/groundtruth.txt", f.dir / "groundtruth.txt");
+  std::filesystem::copy_file(f.dir / "ins.lcmlog", f.sequence + "/ins.lcmlog");
+  const std::vector<ObstacleBox> with_ins = boxes_of(f.sequence);
+  ASSERT_EQ(with_ins.size(), with_truth.size());
+  for (std::size_t i = 0; i < with_ins.size(); ++i) {
+    EXPECT_EQ(with_ins[i].min, with_truth[i].min);
+    EXPECT_EQ(with_ins[i].max, with_truth[i].max);
+    EXPECT_EQ(with_ins[i].cells, with_truth[i].cells);
+  }
+  // Neither: a clear error.
+  std::filesystem::remove(f.sequence + "/ins.lcmlog");
+  hal::ReplaySequence sequence;
+  std::string error;
+  EXPECT_FALSE(sequence.open(f.sequence, "", MapConfig{}, &error));
+  EXPECT_NE(error.find("no pose source"), std::string::npos) << error;
+}

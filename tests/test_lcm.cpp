@@ -203,3 +203,23 @@ TEST(LcmLogPoseSource, ReadsALogSkippingOtherChannelsAndBadMessages) {
   LcmLogPoseSource missing("INS_STATE", false, {}, Eigen::Isometry3d::Identity(), 0.0);
   EXPECT_FALSE(missing.open("/nonexistent/ins.lcmlog", &error));
 }
+
+TEST(LcmCodec, HealthRoundTrip) {
+  zonemap_lcm::health_t m;
+  m.utime = 5;
+  m.frames_mapped = 1234;
+  m.end_to_end_ms_p999 = 42.5f;
+  m.num_counters = 2;
+  m.counter_names = {"ins_rejected_jump", "can_out_tx_queue_full"};
+  m.counter_values = {3, 7};
+  const auto bytes = encode(m);
+  zonemap_lcm::health_t d;
+  ASSERT_EQ(d.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  EXPECT_EQ(d.frames_mapped, 1234);
+  EXPECT_FLOAT_EQ(d.end_to_end_ms_p999, 42.5f);
+  ASSERT_EQ(d.num_counters, 2);
+  EXPECT_EQ(d.counter_names[1], "can_out_tx_queue_full");
+  EXPECT_EQ(d.counter_values[1], 7);
+  EXPECT_LT(d.decode(bytes.data(), 0, static_cast<int>(bytes.size()) - 1), 0);  // truncated
+}

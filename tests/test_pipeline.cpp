@@ -2,6 +2,9 @@
 // racing writer, the pipeline's determinism, static memory and overload policy.
 #include <gtest/gtest.h>
 
+#include "hal/can/obstacle_can_sink.hpp"
+#include "hal/mavlink/mavlink_udp_sink.hpp"
+
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
@@ -235,6 +238,103 @@ TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
       << "every frame accounted for";
   EXPECT_GE(s.frames_mapped, 1);
   EXPECT_EQ(s.mapping_thread_allocations, 0);
+}
+
+// The INS as a live source: every pose of the sequence on the first poll.
+class ListPoseSource final : public hal::PoseSource {
+ public:
+  explicit ListPoseSource(const std::vector<PoseSample>& samples) : samples_(samples) {}
+  hal::PollResult poll(hal::PoseSink& sink, int) override {
+    for (; next_ < samples_.size(); ++next_) sink.push(samples_[next_]);
+    return hal::PollResult::kIdle;  // a live source never ends
+  }
+  hal::PoseSourceCounters counters() const override {
+    hal::PoseSourceCounters c;
+    c.poses_out = static_cast<std::int64_t>(next_);
+    return c;
+  }
+  const char* name() const override { return "list"; }
+
+ private:
+  const std::vector<PoseSample>& samples_;
+  std::size_t next_ = 0;
+};
+
+class RecordingSink final : public hal::ObstacleSink {
+ public:
+  const char* name() const override { return "recording"; }
+  void publish(const hal::ObstacleUpdate& u, double) override {
+    ++updates;
+    last_count = u.count;
+    std::size_t rects = 0;
+    for (std::size_t i = 0; i < u.count; ++i) rects += u.rect_counts[i];
+    last_rects = rects;
+  }
+  void publish_health(const hal::HealthSnapshot& h, double) override {
+    ++healths;
+    last_health = h;
+  }
+  std::int64_t updates = 0, healths = 0;
+  std::size_t last_count = 0, last_rects = 0;
+  hal::HealthSnapshot last_health;
+};
+
+TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
+  testing::TempDir dir;
+  const std::string config_path = test_sequence(dir, "posts-through", 4.0, 40);
+  MapConfig config;
+  std::string error;
+  hal::ReplaySequence sequence;
+  ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
+  ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
+  Mapper mapper(config, sequence.camera());
+  FeatureMap features(config, true);
+  mapper.zones().add_observer(&features);
+  struct ExtractingHooks : runtime::MappingHooks {  // every live zone, every 10th frame
+    Mapper* mapper;
+    FeatureMap* features;
+    void after_frame(std::size_t index, const Eigen::Isometry3d&, const FrameReport&,
+                     double) override {
+      if (index % 10 != 9) return;
+      mapper->zones().for_each_live_zone([this](ZoneView& zone) { features->extract(zone); });
+    }
+  } hooks;
+  hooks.mapper = &mapper;
+  hooks.features = &features;
+  hal::ReplayFrameSource frames(sequence, 0.0);
+  ListPoseSource ins(sequence.poses().samples());
+  RecordingSink recording;
+  // Real sinks too: MAVLink to a loopback port nobody reads, CAN on a host without
+  // CAN (every open fails: the failure path must not allocate either).
+  mavlink::MavlinkUdpConfig mavlink_config;
+  mavlink_config.port = 9;  // discard
+  mavlink_config.rate_hz = 1000;
+  mavlink::MavlinkUdpSink mavlink(mavlink_config);
+  ASSERT_TRUE(mavlink.open(&error)) << error;
+  can::CanObstacleSink can_out("vcan0", {}, features.capacity());
+  hal::ObstacleSink* sinks[] = {&recording, &mavlink, &can_out};
+  runtime::PipelineOptions options;
+  options.publish_every_frames = 1;
+  options.health_period_s = 0.0;  // health with every update
+  runtime::Pipeline pipeline(frames, nullptr, &ins, sinks, mapper, features, hooks, options);
+  pipeline.run();
+  const runtime::PipelineStats& s = pipeline.stats();
+  EXPECT_EQ(s.frames_mapped, 40);
+  EXPECT_EQ(recording.updates, s.outputs_published);
+  EXPECT_EQ(recording.healths, s.outputs_published);
+  EXPECT_EQ(s.health_published, s.outputs_published);
+  EXPECT_GE(recording.last_count, 2u);  // the two posts
+  EXPECT_GE(recording.last_rects, recording.last_count);
+  EXPECT_EQ(recording.last_health.frames_mapped, s.frames_mapped);
+  EXPECT_EQ(recording.last_health.poses_in, static_cast<std::int64_t>(sequence.poses().size()));
+  EXPECT_GT(recording.last_health.end_to_end_ms_p50, 0.0);
+  EXPECT_GT(recording.last_health.static_memory_bytes, 0);
+  EXPECT_GT(recording.last_health.named, 5);
+  EXPECT_EQ(mavlink.sent(), s.outputs_published);
+  EXPECT_EQ(s.mapping_thread_allocations, 0);
+  EXPECT_EQ(s.output_thread_allocations, 0);
+  EXPECT_EQ(s.output_thread_frees, 0);
+  EXPECT_EQ(s.ins_thread_allocations, 0);
 }
 
 }  // namespace

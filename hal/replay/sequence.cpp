@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "hal/can/can_pose_source.hpp"
+#include "hal/lcm/lcm_link.hpp"
 #include "hal/replay/png_io.hpp"
 #include "hal/replay/yaml_config.hpp"
 
@@ -136,14 +138,51 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   }
 
   poses_ = PoseTrack(config.pose_max_gap_s, config.pose_tolerance_s);
-  const std::string trajectory = join(dir, "groundtruth.txt");
-  if (!std::filesystem::exists(trajectory)) {
-    *error = dir + ": no pose source (groundtruth.txt)";
-    return false;
-  }
   poses_rejected_ = 0;
   warnings_.clear();
-  return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error);
+  const std::string trajectory = join(dir, "groundtruth.txt");
+  if (std::filesystem::exists(trajectory)) {
+    return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error);
+  }
+  // The INS's own records (FORMATS.md §1): an LCM log of ins_state_t on INS_STATE,
+  // or a candump log in the zonemap INS profile (INS clock), both through the gate.
+  const std::string lcm_log = join(dir, "ins.lcmlog"), candump = join(dir, "ins.candump");
+  std::unique_ptr<PoseSource> source;
+  if (std::filesystem::exists(lcm_log)) {
+    auto log = std::make_unique<lcm_link::LcmLogPoseSource>(
+        "INS_STATE", camera_.world_z_up, InsGateConfig{}, camera_.body_T_camera, 0.0);
+    if (!log->open(lcm_log, error)) return false;
+    source = std::move(log);
+  } else if (std::filesystem::exists(candump)) {
+    can::InsCanConfig profile;
+    profile.profile = can::InsCanProfile::kZonemapIns;
+    profile.time_source = can::InsTimeSource::kIns;
+    auto log = std::make_unique<can::CandumpPoseSource>(profile, InsGateConfig{},
+                                                        camera_.body_T_camera, 0.0);
+    if (!log->open(candump, error)) return false;
+    source = std::move(log);
+  } else {
+    *error = dir + ": no pose source (groundtruth.txt, ins.lcmlog or ins.candump)";
+    return false;
+  }
+  struct TrackSink final : PoseSink {
+    PoseTrack* track;
+    int* refused;
+    void push(const PoseSample& p) override {
+      if (!track->append(p)) ++*refused;
+    }
+  } sink;
+  sink.track = &poses_;
+  sink.refused = &poses_rejected_;
+  while (source->poll(sink, 0) != PollResult::kEnd) {
+  }
+  const PoseSourceCounters c = source->counters();
+  poses_rejected_ += static_cast<int>(c.gate.rejected_total() + c.malformed);
+  if (poses_rejected_ > 0) {
+    warnings_.push_back(std::string(source->name()) + ": " + std::to_string(poses_rejected_) +
+                        " INS messages refused (malformed or implausible)");
+  }
+  return true;
 }
 
 ReplayFrame ReplaySequence::make_frame() const {

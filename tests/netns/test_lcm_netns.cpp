@@ -17,6 +17,7 @@
 
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/lcm/lcm_link.hpp"
+#include "hal/lcm/lcm_sinks.hpp"
 #include "hal/os/allocation_counter.hpp"
 
 extern char** environ;
@@ -181,4 +182,44 @@ TEST(LcmMulticast, LcmLoggerRecordsOurObstacleMap) {
   ASSERT_EQ(decoded.num_boxes, 3);
   EXPECT_EQ(decoded.boxes[2].min[0], 20.0);
   EXPECT_EQ(decoded.utime, 42);
+}
+
+TEST(LcmMulticast, ObstacleSinkPublishesMapDistancesAndHealthWithoutAllocating) {
+  LcmOutputConfig config;
+  config.url = kUrl;
+  config.rate_hz = 1000;
+  LcmObstacleSink sink(config);
+  std::vector<ObstacleBox> boxes(4);
+  for (int i = 0; i < 4; ++i) {
+    boxes[static_cast<std::size_t>(i)].id = static_cast<std::uint32_t>(i + 1);
+    boxes[static_cast<std::size_t>(i)].min = Eigen::Vector3d(10.0 + i, -1, -5);
+    boxes[static_cast<std::size_t>(i)].max = Eigen::Vector3d(11.0 + i, 1, 0);
+  }
+  hal::ObstacleUpdate update;
+  update.boxes = boxes.data();
+  update.count = boxes.size();
+  update.world_z_up = false;
+  update.world_T_body.translation() = Eigen::Vector3d(0, 0, -2);
+  hal::HealthSnapshot health;
+  health.add("ins_rejected_jump", 3);
+  sink.publish(update, 0.0);  // the provider starts on first use (allocates once)
+  sink.publish_health(health, 0.0);
+  os::AllocationCounts counted;
+  {
+    os::AllocationScope scope;
+    for (int i = 1; i <= 50; ++i) {
+      sink.publish(update, i * 0.01);
+      sink.publish_health(health, i * 0.01);
+    }
+    counted = scope.counted();
+  }
+  std::printf("LcmObstacleSink over udpm, 50 updates + 50 health: %lld allocations, %lld frees\n",
+              static_cast<long long>(counted.allocations), static_cast<long long>(counted.frees));
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
+  hal::HealthSnapshot report;
+  sink.report(&report);
+  ASSERT_GE(report.named, 1);
+  EXPECT_EQ(std::string(report.names[0]), "lcm_out_published");
+  EXPECT_EQ(report.values[0], 51 * 3);  // map + distances + health per round
 }

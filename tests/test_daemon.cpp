@@ -94,13 +94,16 @@ pid_t spawn_daemon(const std::vector<std::string>& args, const std::string& stde
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 2, stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
                                    0644);
-  std::vector<std::string> all = {ZONEMAP_DAEMON_PATH};
+  // A cross build's daemon runs through the same emulator as the tests.
+  std::vector<std::string> all;
+  if (std::string(ZONEMAP_EMULATOR).size() > 0) all.push_back(ZONEMAP_EMULATOR);
+  all.push_back(ZONEMAP_DAEMON_PATH);
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : all) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = -1;
-  posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   return pid;
 }

@@ -7,8 +7,15 @@ CanObstacleSink::CanObstacleSink(const std::string& interface, const ObstacleCan
     : config_(config),
       encoder_(config),
       link_(interface, {}, config.extended_ids),
+      transport_(&link_),
       order_(max_boxes),
       frames_(encoder_.frames_per_update()) {}
+
+CanObstacleSink::CanObstacleSink(CanTransport& transport, const ObstacleCanConfig& config,
+                                 std::size_t max_boxes)
+    : CanObstacleSink("", config, max_boxes) {
+  transport_ = &transport;
+}
 
 void CanObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (now_s - last_s_ < 1.0 / config_.rate_hz) return;
@@ -17,7 +24,7 @@ void CanObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   const std::size_t n = encoder_.encode(update.boxes, count, update.world_T_body.translation(),
                                         update.time_s, order_.data(), frames_.data());
   for (std::size_t i = 0; i < n; ++i) {
-    if (link_.send(frames_[i], now_s) != CanIo::kOk) {
+    if (transport_->send(frames_[i], now_s) != CanIo::kOk) {
       ++cut_short_;  // the rest of this update is not sent; the next one starts afresh
       return;
     }

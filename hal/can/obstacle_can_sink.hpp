@@ -17,6 +17,8 @@ class CanObstacleSink final : public hal::ObstacleSink {
  public:
   CanObstacleSink(const std::string& interface, const ObstacleCanConfig& config,
                   std::size_t max_boxes);
+  // Sends through `transport` instead of its own SocketCAN link (fault injection).
+  CanObstacleSink(CanTransport& transport, const ObstacleCanConfig& config, std::size_t max_boxes);
   const char* name() const override { return "obstacles over SocketCAN"; }
   void publish(const hal::ObstacleUpdate& update, double now_s) override;
   void report(hal::HealthSnapshot* health) const override;
@@ -28,6 +30,7 @@ class CanObstacleSink final : public hal::ObstacleSink {
   ObstacleCanConfig config_;
   ObstacleCanEncoder encoder_;
   CanLink link_;
+  CanTransport* transport_;
   std::vector<std::uint32_t> order_;
   std::vector<CanFrame> frames_;
   double last_s_ = -1e300;

@@ -54,7 +54,14 @@ struct CanLinkCounters {
   std::int64_t link_down_events = 0, reopen_attempts = 0, reopens = 0;
 };
 
-class CanLink {
+// What an output needs of a CAN link (so faults can be injected in tests).
+class CanTransport {
+ public:
+  virtual ~CanTransport() = default;
+  virtual CanIo send(const CanFrame& frame, double now_s) = 0;
+};
+
+class CanLink final : public CanTransport {
  public:
   // Backoff doubles from min to max while the interface stays unavailable.
   CanLink(const std::string& interface, std::span<const std::uint32_t> ids, bool extended_ids,
@@ -62,7 +69,7 @@ class CanLink {
   // (Re)opens when due at `now_s`; true when the link is usable.
   bool ensure_open(double now_s);
   CanIo receive(CanFrame* frame, double now_s);
-  CanIo send(const CanFrame& frame, double now_s);
+  CanIo send(const CanFrame& frame, double now_s) override;
   bool wait_readable(int timeout_ms) {
     return socket_.is_open() && socket_.wait_readable(timeout_ms);
   }

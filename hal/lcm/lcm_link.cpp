@@ -5,6 +5,7 @@
 #include <poll.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 #include "hal/lcm/lcm_codec.hpp"
@@ -183,14 +184,62 @@ hal::PoseSourceCounters LcmLogPoseSource::counters() const {
   return c;
 }
 
+LcmPublisher::LcmPublisher(const std::string& url, bool background_restart)
+    : connection_(url), background_(background_restart) {
+  if (background_) keeper_ = std::thread([this] { keep(); });
+}
+
+LcmPublisher::~LcmPublisher() {
+  if (keeper_.joinable()) {
+    stop_.store(true);
+    wake_.notify_all();
+    keeper_.join();
+  }
+}
+
+void LcmPublisher::keep() {
+  lcm_t* owned = nullptr;
+  double backoff_s = 0.5;
+  while (!stop_.load()) {
+    if (live_.load(std::memory_order_acquire) == nullptr) {
+      // Down (never started, or the publisher dropped it after an error).
+      if (owned != nullptr) lcm_destroy(owned);
+      owned = lcm_create(connection_.url().c_str());
+      if (owned != nullptr) {
+        live_.store(owned, std::memory_order_release);
+        backoff_s = 0.5;
+      } else {
+        keeper_failures_.fetch_add(1, std::memory_order_relaxed);
+        backoff_s = std::min(backoff_s * 2.0, 10.0);
+      }
+    }
+    std::unique_lock<std::mutex> lock(mutex_);
+    const double wait_s = live_.load() != nullptr ? 0.1 : backoff_s;
+    wake_.wait_for(lock, std::chrono::duration<double>(wait_s), [this] { return stop_.load(); });
+  }
+  live_.store(nullptr);
+  if (owned != nullptr) lcm_destroy(owned);
+}
+
+std::int64_t LcmPublisher::start_failures() const {
+  return background_ ? keeper_failures_.load(std::memory_order_relaxed)
+                     : connection_.start_failures();
+}
+
 bool LcmPublisher::publish(const char* channel, const void* data, std::size_t size, double now_s) {
-  lcm_t* lcm = connection_.get(now_s);
+  lcm_t* lcm = background_ ? live_.load(std::memory_order_acquire) : connection_.get(now_s);
   if (lcm == nullptr) {
     ++provider_down_;
     return false;
   }
   if (lcm_publish(lcm, channel, data, static_cast<unsigned int>(size)) != 0) {
     ++failed_;
+    // Give it back: the keeper (or the next get() after the backoff) restarts it.
+    if (background_) {
+      live_.store(nullptr, std::memory_order_release);
+    } else {
+      connection_.reset(now_s);
+    }
     return false;
   }
   ++published_;

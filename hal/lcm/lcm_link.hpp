@@ -5,8 +5,12 @@
 // start is retried with backoff; mapping never waits for it.
 #pragma once
 
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "hal/ins/pose_source.hpp"
 
@@ -81,17 +85,35 @@ class LcmLogPoseSource final : public hal::PoseSource {
   std::int64_t messages_ = 0, malformed_ = 0, wrong_frame_ = 0, solutions_ = 0;
 };
 
-// Publishes encoded messages; counts what could not be sent.
+// Publishes encoded messages; counts what could not be sent. With
+// background_restart the provider is (re)started by a keeper thread, so a provider
+// that is down never costs the publishing (real-time) thread an allocation: the
+// publisher only ever loads an atomic pointer.
 class LcmPublisher {
  public:
-  explicit LcmPublisher(const std::string& url) : connection_(url) {}
+  explicit LcmPublisher(const std::string& url, bool background_restart = false);
+  ~LcmPublisher();
+  LcmPublisher(const LcmPublisher&) = delete;
+  LcmPublisher& operator=(const LcmPublisher&) = delete;
   bool publish(const char* channel, const void* data, std::size_t size, double now_s);
   std::int64_t published() const { return published_; }
   std::int64_t failed() const { return failed_; }
   std::int64_t provider_down() const { return provider_down_; }
+  std::int64_t start_failures() const;
+  // True while the provider is up (with a keeper: once it has started it).
+  bool ready() const { return background_ ? live_.load() != nullptr : true; }
 
  private:
-  LcmConnection connection_;
+  void keep();
+
+  LcmConnection connection_;  // without a keeper
+  bool background_;
+  std::atomic<lcm_t*> live_{nullptr};  // with a keeper: the provider, null while down
+  std::atomic<bool> stop_{false};
+  std::atomic<std::int64_t> keeper_failures_{0};
+  std::mutex mutex_;  // the keeper's sleep only, never taken by the publisher
+  std::condition_variable wake_;
+  std::thread keeper_;
   std::int64_t published_ = 0, failed_ = 0, provider_down_ = 0;
 };
 

@@ -5,7 +5,9 @@
 namespace zonemap::lcm_link {
 
 LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config)
-    : config_(config), publisher_(config.url), map_(config.max_boxes, config.max_rects_per_box) {
+    : config_(config),
+      publisher_(config.url, true),
+      map_(config.max_boxes, config.max_rects_per_box) {
   health_.num_counters = hal::HealthSnapshot::kMaxNamed;
   health_.counter_names.assign(hal::HealthSnapshot::kMaxNamed, std::string(63, 'x'));
   health_.counter_values.assign(hal::HealthSnapshot::kMaxNamed, 0);
@@ -80,6 +82,7 @@ void LcmObstacleSink::report(hal::HealthSnapshot* h) const {
   h->add("lcm_out_published", publisher_.published());
   h->add("lcm_out_failed", publisher_.failed() + encode_failures_);
   h->add("lcm_out_provider_down", publisher_.provider_down());
+  h->add("lcm_out_start_failures", publisher_.start_failures());
 }
 
 }  // namespace zonemap::lcm_link

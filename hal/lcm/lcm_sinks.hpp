@@ -32,6 +32,7 @@ class LcmObstacleSink final : public hal::ObstacleSink {
   void publish(const hal::ObstacleUpdate& update, double now_s) override;
   void publish_health(const hal::HealthSnapshot& health, double now_s) override;
   void report(hal::HealthSnapshot* health) const override;
+  bool ready() const { return publisher_.ready(); }  // the provider has started
 
  private:
   LcmOutputConfig config_;

@@ -174,16 +174,17 @@ struct Pipeline::Impl {
       ++s.frames_in;
       shared_frames_in.fetch_add(1, std::memory_order_relaxed);
       const std::size_t index = frame_index++;
-      if (slot == kEnd) {
-        ++s.dropped_pool_full;  // counted, never mapped
-        shared_pool_full.fetch_add(1, std::memory_order_relaxed);
-        offered.fetch_add(1, std::memory_order_release);
-        continue;
-      }
+      // A corrupt frame counts as rejected even when there was no slot for it.
       if (read == hal::FrameRead::kRejected) {
         ++s.frames_rejected;
         shared_rejected.fetch_add(1, std::memory_order_relaxed);
         spare = slot;
+        offered.fetch_add(1, std::memory_order_release);
+        continue;
+      }
+      if (slot == kEnd) {
+        ++s.dropped_pool_full;  // counted, never mapped
+        shared_pool_full.fetch_add(1, std::memory_order_relaxed);
         offered.fetch_add(1, std::memory_order_release);
         continue;
       }

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "hal/lcm/lcm_codec.hpp"
@@ -202,7 +203,13 @@ TEST(LcmMulticast, ObstacleSinkPublishesMapDistancesAndHealthWithoutAllocating) 
   update.world_T_body.translation() = Eigen::Vector3d(0, 0, -2);
   hal::HealthSnapshot health;
   health.add("ins_rejected_jump", 3);
-  sink.publish(update, 0.0);  // the provider starts on first use (allocates once)
+  // The provider starts on the sink's keeper thread: wait for that state (bounded).
+  const double deadline = now_s() + 10.0;
+  while (!sink.ready()) {
+    ASSERT_LT(now_s(), deadline) << "LCM provider never started";
+    std::this_thread::yield();
+  }
+  sink.publish(update, 0.0);
   sink.publish_health(health, 0.0);
   os::AllocationCounts counted;
   {

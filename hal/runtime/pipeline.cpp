@@ -406,6 +406,29 @@ struct Pipeline::Impl {
   std::size_t static_bytes = 0;
 };
 
+void add_to_run_stats(const PipelineStats& p, hal::RunStats* s) {
+  s->frames_in += p.frames_in;
+  s->frames_rejected += p.frames_rejected;
+  s->frames_skipped_no_pose += p.frames_skipped_no_pose;
+  s->heap_allocations_after_init +=
+      p.mapping_thread_allocations + p.output_thread_allocations + p.ins_thread_allocations;
+  s->heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees + p.ins_thread_frees;
+  s->pipeline = true;
+  s->dropped_mapper_behind += p.dropped_mapper_behind;
+  s->dropped_pool_full += p.dropped_pool_full;
+  s->pose_waits += p.pose_waits;
+  s->outputs_published += p.outputs_published;
+  s->outputs_skipped += p.outputs_skipped;
+  s->deadline_misses += p.deadline_misses;
+  s->end_to_end_ms_p50 = p.end_to_end.percentile(0.50);
+  s->end_to_end_ms_p99 = p.end_to_end.percentile(0.99);
+  s->end_to_end_ms_p999 = p.end_to_end.percentile(0.999);
+  s->end_to_end_ms_max = p.end_to_end.max_ms();
+  s->queue_ms_p99 = p.acquire_to_map_start.percentile(0.99);
+  s->rss_after_start = p.rss_after_start;
+  s->rss_at_end = p.rss_at_end;
+}
+
 Pipeline::Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
                    MappingHooks& hooks, const PipelineOptions& options) {
   auto source = std::make_unique<hal::ReplayFrameSource>(sequence, options.source_rate_hz);

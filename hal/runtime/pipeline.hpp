@@ -17,6 +17,7 @@
 #include "hal/frames/frame_source.hpp"
 #include "hal/ins/pose_source.hpp"
 #include "hal/output/obstacle_sink.hpp"
+#include "hal/output/run_outputs.hpp"
 #include "hal/replay/sequence.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/feature_map.hpp"
@@ -81,6 +82,10 @@ class MappingHooks {
   virtual void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                            const FrameReport& report, double mapping_ms) = 0;
 };
+
+// Adds a pipeline run's figures to stats.json's (frames, drops, latency, memory,
+// allocations of every thread). Counts are added, so single-threaded figures stay.
+void add_to_run_stats(const PipelineStats& pipeline, hal::RunStats* stats);
 
 class Pipeline {
  public:

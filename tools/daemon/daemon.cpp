@@ -191,17 +191,11 @@ bool VehicleDaemon::write_outputs(std::string* error) {
     return false;
   }
   hal::RunStats s;
-  s.frames_in = stats_.frames_in;
+  runtime::add_to_run_stats(stats_, &s);
   s.frames_mapped = stats_.frames_mapped;
-  s.frames_rejected = stats_.frames_rejected;
-  s.frames_skipped_no_pose = stats_.frames_skipped_no_pose;
   s.frame_ms_p50 = hal::percentile(frame_ms_, 0.50);
   s.frame_ms_p99 = hal::percentile(frame_ms_, 0.99);
   s.frame_ms_max = frame_ms_.empty() ? 0.0 : *std::max_element(frame_ms_.begin(), frame_ms_.end());
-  s.heap_allocations_after_init = stats_.mapping_thread_allocations +
-                                  stats_.output_thread_allocations + stats_.ins_thread_allocations;
-  s.heap_frees_after_init =
-      stats_.mapping_thread_frees + stats_.output_thread_frees + stats_.ins_thread_frees;
   s.zone_pool_bytes = mapper_->zones().reserved_bytes();
   s.local_grid_bytes = mapper_->local_grid().reserved_bytes();
   s.feature_map_bytes = features_->reserved_bytes();
@@ -214,20 +208,6 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   s.features = static_cast<std::int64_t>(features_->count());
   s.feature_counters = features_->counters();
   s.cell_size_m = map_config_.cell_size_m;
-  s.pipeline = true;
-  s.dropped_mapper_behind = stats_.dropped_mapper_behind;
-  s.dropped_pool_full = stats_.dropped_pool_full;
-  s.pose_waits = stats_.pose_waits;
-  s.outputs_published = stats_.outputs_published;
-  s.outputs_skipped = stats_.outputs_skipped;
-  s.deadline_misses = stats_.deadline_misses;
-  s.end_to_end_ms_p50 = stats_.end_to_end.percentile(0.50);
-  s.end_to_end_ms_p99 = stats_.end_to_end.percentile(0.99);
-  s.end_to_end_ms_p999 = stats_.end_to_end.percentile(0.999);
-  s.end_to_end_ms_max = stats_.end_to_end.max_ms();
-  s.queue_ms_p99 = stats_.acquire_to_map_start.percentile(0.99);
-  s.rss_after_start = stats_.rss_after_start;
-  s.rss_at_end = stats_.rss_at_end;
   s.poses_rejected = pose_counters_.gate.rejected_total() + pose_counters_.malformed;
   // Every sink's and the INS source's counters under "links".
   hal::HealthSnapshot links;

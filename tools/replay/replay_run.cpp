@@ -201,25 +201,7 @@ void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
   in_pipeline_ = false;
   pipeline_stats_ = pipeline.stats();
   const runtime::PipelineStats& p = pipeline_stats_;
-  stats_.frames_in += p.frames_in;
-  stats_.frames_rejected += p.frames_rejected;
-  stats_.frames_skipped_no_pose += p.frames_skipped_no_pose;
-  stats_.heap_allocations_after_init += p.mapping_thread_allocations + p.output_thread_allocations;
-  stats_.heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees;
-  stats_.pipeline = true;
-  stats_.dropped_mapper_behind = p.dropped_mapper_behind;
-  stats_.dropped_pool_full = p.dropped_pool_full;
-  stats_.pose_waits = p.pose_waits;
-  stats_.outputs_published = p.outputs_published;
-  stats_.outputs_skipped = p.outputs_skipped;
-  stats_.deadline_misses = p.deadline_misses;
-  stats_.end_to_end_ms_p50 = p.end_to_end.percentile(0.50);
-  stats_.end_to_end_ms_p99 = p.end_to_end.percentile(0.99);
-  stats_.end_to_end_ms_p999 = p.end_to_end.percentile(0.999);
-  stats_.end_to_end_ms_max = p.end_to_end.max_ms();
-  stats_.queue_ms_p99 = p.acquire_to_map_start.percentile(0.99);
-  stats_.rss_after_start = p.rss_after_start;
-  stats_.rss_at_end = p.rss_at_end;
+  runtime::add_to_run_stats(p, &stats_);
   if (!options_.quiet) {
     for (const auto& w : p.warnings) std::fprintf(stderr, "zonemap-replay: %s\n", w.c_str());
   }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hal/can/can_pose_source.hpp"
 #include "hal/can/can_signals.hpp"
 #include "hal/can/candump.hpp"
 #include "hal/can/dbc.hpp"
@@ -495,4 +496,43 @@ TEST(Candump, ParsesEveryFrameKindAndRoundTrips) {
     EXPECT_TRUE(std::equal(in.data.begin(), in.data.begin() + in.dlc, out.data.begin()));
     EXPECT_NEAR(out.time_s, in.time_s, 1.5e-6);
   }
+}
+
+TEST(CandumpPoseSource, ReadsALogThroughTheProfileAndTheGateCountingBadLines) {
+  const std::string path = ::testing::TempDir() + "/ins.candump";
+  InsCanConfig profile;
+  profile.has_origin = true;
+  profile.origin = {48.0, 11.0, 500.0};
+  profile.time_source = InsTimeSource::kIns;
+  LocalTangentPlane plane(profile.origin);
+  {
+    std::ofstream out(path);
+    out << "# a comment line, skipped\n";
+    for (int i = 0; i < 25; ++i) {
+      SbgSample s;
+      s.time_us = 1'000'000u + static_cast<std::uint32_t>(i) * 20'000u;
+      s.position = plane.to_geodetic(Eigen::Vector3d(0.5 * i, 0.0, -40.0));
+      CanFrame frames[5];
+      const int n = encode_sbg(s, profile, 1.7e9 + i * 0.02, frames);
+      for (int k = 0; k < n; ++k) {
+        char line[96];
+        out << std::string(line, format_candump_line(frames[k], "can0", line, sizeof line)) << "\n";
+      }
+      if (i == 7) out << "(1700000000.12) can0 130#00\n";  // malformed: 2 fractional digits
+    }
+  }
+  CandumpPoseSource source(profile, {}, Eigen::Isometry3d::Identity(), 0.0);
+  std::string error;
+  ASSERT_TRUE(source.open(path, &error)) << error;
+  struct Sink : hal::PoseSink {
+    std::vector<PoseSample> poses;
+    void push(const PoseSample& p) override { poses.push_back(p); }
+  } sink;
+  while (source.poll(sink, 0) != hal::PollResult::kEnd) {
+  }
+  ASSERT_EQ(sink.poses.size(), 25u);
+  EXPECT_LT((sink.poses[24].position - Eigen::Vector3d(12.0, 0.0, -40.0)).norm(), 0.03);
+  EXPECT_EQ(source.counters().malformed, 1);
+  CandumpPoseSource missing(profile, {}, Eigen::Isometry3d::Identity(), 0.0);
+  EXPECT_FALSE(missing.open("/nonexistent.candump", &error));
 }

@@ -18,6 +18,7 @@
 #include "hal/can/candump.hpp"
 #include "hal/can/ins_can.hpp"
 #include "hal/can/obstacle_can.hpp"
+#include "hal/can/obstacle_can_sink.hpp"
 #include "hal/can/socketcan.hpp"
 
 extern char** environ;
@@ -180,12 +181,14 @@ TEST(SocketCanVm, CansendIsReceivedAndCandumpLogsOurObstacleUpdate) {
     boxes[i].min = Eigen::Vector3d(10.0 * static_cast<double>(i), 5.0, -20.0);
     boxes[i].max = boxes[i].min + Eigen::Vector3d(1.5, 2.5, 20.0);
   }
-  ObstacleCanEncoder encoder({});
-  std::vector<std::uint32_t> order(boxes.size());
-  std::vector<CanFrame> frames(encoder.frames_per_update());
-  const std::size_t n = encoder.encode(boxes.data(), boxes.size(), Eigen::Vector3d::Zero(), 0.0,
-                                       order.data(), frames.data());
-  for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(tx.send(frames[i]), CanIo::kOk);
+  // The daemon's CAN output itself, on its own socket.
+  CanObstacleSink sink("vcan1", ObstacleCanConfig{}, boxes.size());
+  hal::ObstacleUpdate update;
+  update.boxes = boxes.data();
+  update.count = boxes.size();
+  sink.publish(update, 0.0);
+  EXPECT_EQ(sink.updates_cut_short(), 0) << sink.link_counters().tx_link_down;
+  EXPECT_EQ(sink.link_counters().tx_frames, 2 + 2 * static_cast<std::int64_t>(boxes.size()));
   probe.id = 0x7AB;
   while (slurp(log).find("7AB#") == std::string::npos) {
     ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "candump never logged the update";

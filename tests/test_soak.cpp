@@ -26,9 +26,18 @@ TEST(Soak, ShortLoopedFlightKeepsMemoryFlatAndTheStoreBounded) {
   EXPECT_EQ(s.mapping_thread_allocations + s.output_thread_allocations + s.ins_thread_allocations,
             0);
   EXPECT_EQ(s.mapping_thread_frees + s.output_thread_frees + s.ins_thread_frees, 0);
-  // Resident memory after start-up: flat (within 1 MiB of page-cache noise).
-  EXPECT_LT(s.rss_at_end - s.rss_after_start, 1 << 20)
+  // Resident memory: flat once every code path has run (after the first two laps)
+  // within 1 MiB; from start-up within 4 MiB (under qemu-user the emulator's
+  // translation cache grows in the same process while new code first runs).
+  EXPECT_LT(s.rss_at_end - s.rss_after_start, 4 << 20)
       << s.rss_after_start << " -> " << s.rss_at_end;
+  const soak::SoakSample* warm = nullptr;
+  for (const soak::SoakSample& x : five_laps.samples) {
+    if (warm == nullptr && x.frames_in >= 120) warm = &x;
+  }
+  ASSERT_NE(warm, nullptr);
+  EXPECT_LT(five_laps.samples.back().rss_bytes - warm->rss_bytes, 1 << 20)
+      << warm->rss_bytes << " -> " << five_laps.samples.back().rss_bytes;
   // The same places again and again: no new objects after the first laps.
   EXPECT_LE(five_laps.features_at_end, two_laps.features_at_end + 1);
   EXPECT_GT(five_laps.features_at_end, 0);

@@ -3,7 +3,7 @@
 
 ZONEMAP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ZONEMAP_PACKAGES=(cmake ninja-build g++ pkg-config libeigen3-dev libpng-dev zlib1g-dev
-                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin)
+                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin iproute2)
 
 # Installs the Debian packages that are not installed yet; silent when none is missing.
 zonemap_install() {

@@ -8,36 +8,58 @@ DepthRangeTable::DepthRangeTable(int width, int height) : width_(width), height_
   levels_ = 1;
   while (levels_ < kMaxLevels && (1 << levels_) <= std::max(width, height)) ++levels_;
   const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  storage_.reset(new std::uint16_t[2 * n * static_cast<std::size_t>(levels_)]());
-  bytes_ = 2 * n * static_cast<std::size_t>(levels_) * sizeof(std::uint16_t);
-  for (int l = 0; l < levels_; ++l) {
-    min_[static_cast<std::size_t>(l)] = storage_.get() + 2 * n * static_cast<std::size_t>(l);
-    max_[static_cast<std::size_t>(l)] = min_[static_cast<std::size_t>(l)] + n;
+  const std::size_t pair_values = 2 * n * static_cast<std::size_t>(levels_ - 1);
+  codes_.reset(new std::uint16_t[n]());
+  storage_.reset(new std::uint16_t[std::max<std::size_t>(pair_values, 1)]());
+  bytes_ = (n + pair_values) * sizeof(std::uint16_t);
+  for (int l = 1; l < levels_; ++l) {
+    pairs_[static_cast<std::size_t>(l)] = storage_.get() + 2 * n * static_cast<std::size_t>(l - 1);
   }
 }
 
 void DepthRangeTable::build() {
-  const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint16_t v = min_[0][i];
-    max_[0][i] = v == kMissing ? 0 : v;
-  }
-  for (int l = 1; l < levels_; ++l) {
-    const int half = 1 << (l - 1);
-    const std::uint16_t* pmin = min_[static_cast<std::size_t>(l - 1)];
-    const std::uint16_t* pmax = max_[static_cast<std::size_t>(l - 1)];
-    std::uint16_t* cmin = min_[static_cast<std::size_t>(l)];
-    std::uint16_t* cmax = max_[static_cast<std::size_t>(l)];
+  if (levels_ < 2) return;
+  // Level 1 straight from the codes: 2x2 squares. A missing pixel is 0xFFFF in
+  // both halves (min ignores it; for the max half it must not count either).
+  {
+    const auto inverted = [](std::uint16_t v) {
+      return static_cast<std::uint16_t>((0xFFFF - v) | (v == kMissing ? 0xFFFF : 0));
+    };
+    std::uint16_t* out = pairs_[1];
+    const std::uint16_t* c = codes_.get();
     for (int y = 0; y < height_; ++y) {
-      const int y2 = std::min(y + half, height_ - 1);
-      const std::size_t r0 = static_cast<std::size_t>(y) * width_;
-      const std::size_t r1 = static_cast<std::size_t>(y2) * width_;
+      const std::uint16_t* a = c + static_cast<std::size_t>(y) * width_;
+      const std::uint16_t* b = c + static_cast<std::size_t>(std::min(y + 1, height_ - 1)) * width_;
+      std::uint16_t* o = out + 2 * static_cast<std::size_t>(y) * width_;
       for (int x = 0; x < width_; ++x) {
-        const int x2 = std::min(x + half, width_ - 1);
-        cmin[r0 + x] =
-            std::min(std::min(pmin[r0 + x], pmin[r0 + x2]), std::min(pmin[r1 + x], pmin[r1 + x2]));
-        cmax[r0 + x] =
-            std::max(std::max(pmax[r0 + x], pmax[r0 + x2]), std::max(pmax[r1 + x], pmax[r1 + x2]));
+        const int x2 = x + 1 < width_ ? x + 1 : x;
+        o[2 * x] = std::min(std::min(a[x], a[x2]), std::min(b[x], b[x2]));
+        o[2 * x + 1] = std::min(std::min(inverted(a[x]), inverted(a[x2])),
+                                std::min(inverted(b[x]), inverted(b[x2])));
+      }
+    }
+  }
+  // Level l from level l-1: the minimum of four pairs, element-wise.
+  for (int l = 2; l < levels_; ++l) {
+    const int half = 1 << (l - 1);
+    const std::uint16_t* prev = pairs_[static_cast<std::size_t>(l - 1)];
+    std::uint16_t* out = pairs_[static_cast<std::size_t>(l)];
+    const std::size_t row_values = 2 * static_cast<std::size_t>(width_);
+    const std::size_t inner = 2 * static_cast<std::size_t>(std::max(width_ - half, 0));
+    const std::size_t shift = 2 * static_cast<std::size_t>(half);
+    for (int y = 0; y < height_; ++y) {
+      const std::uint16_t* a = prev + static_cast<std::size_t>(y) * row_values;
+      const std::uint16_t* b =
+          prev + static_cast<std::size_t>(std::min(y + half, height_ - 1)) * row_values;
+      std::uint16_t* o = out + static_cast<std::size_t>(y) * row_values;
+      for (std::size_t i = 0; i < inner; ++i) {
+        o[i] = std::min(std::min(a[i], a[i + shift]), std::min(b[i], b[i + shift]));
+      }
+      // The last columns: the square is cut at the image's right edge.
+      const std::size_t last = row_values - 2;
+      for (std::size_t i = inner; i < row_values; ++i) {
+        const std::size_t j = std::min(i + shift, last + (i & 1));
+        o[i] = std::min(std::min(a[i], a[j]), std::min(b[i], b[j]));
       }
     }
   }
@@ -49,25 +71,35 @@ void DepthRangeTable::range(int x0, int y0, int x1, int y1, std::uint16_t* lo,
   const int h = y1 - y0 + 1;
   int l = 0;
   while (l + 1 < levels_ && (2 << l) <= std::min(w, h)) ++l;
-  const int side = 1 << l;
-  const std::uint16_t* tmin = min_[static_cast<std::size_t>(l)];
-  const std::uint16_t* tmax = max_[static_cast<std::size_t>(l)];
   std::uint16_t mn = kMissing;
-  std::uint16_t mx = 0;
-  // Squares at x0, x0 + side, ..., and one ending at x1 (overlaps are harmless).
-  for (int y = y0;; y += side) {
-    const int sy = std::min(y, y1 - side + 1);
-    for (int x = x0;; x += side) {
-      const int sx = std::min(x, x1 - side + 1);
-      const std::size_t i = static_cast<std::size_t>(sy) * width_ + sx;
-      mn = std::min(mn, tmin[i]);
-      mx = std::max(mx, tmax[i]);
-      if (sx + side > x1) break;
+  std::uint16_t inv_mx = 0xFFFF;
+  if (l == 0) {  // a one-pixel-wide rectangle: read the codes
+    for (int y = y0; y <= y1; ++y) {
+      const std::uint16_t* row = codes_.get() + static_cast<std::size_t>(y) * width_;
+      for (int x = x0; x <= x1; ++x) {
+        const std::uint16_t v = row[x];
+        mn = std::min(mn, v);
+        inv_mx = std::min(inv_mx, static_cast<std::uint16_t>(v == kMissing ? 0xFFFF : 0xFFFF - v));
+      }
     }
-    if (sy + side > y1) break;
+  } else {
+    const int side = 1 << l;
+    const std::uint16_t* table = pairs_[static_cast<std::size_t>(l)];
+    // Squares at x0, x0 + side, ..., and one ending at x1 (overlaps are harmless).
+    for (int y = y0;; y += side) {
+      const int sy = std::min(y, y1 - side + 1);
+      for (int x = x0;; x += side) {
+        const int sx = std::min(x, x1 - side + 1);
+        const std::uint16_t* p = table + 2 * (static_cast<std::size_t>(sy) * width_ + sx);
+        mn = std::min(mn, p[0]);
+        inv_mx = std::min(inv_mx, p[1]);
+        if (sx + side > x1) break;
+      }
+      if (sy + side > y1) break;
+    }
   }
   *lo = mn;
-  *hi = mx;
+  *hi = static_cast<std::uint16_t>(0xFFFF - inv_mx);
 }
 
 }  // namespace zonemap

@@ -128,7 +128,12 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
       }
     }
     depths_.build();
-    report.cells_visited = projective_.draw(depths_, world_T_camera, local_);
+    const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_);
+    report.cells_visited = drawn.cells_evaluated;
+    report.cells_block_free = drawn.cells_block_free;
+    report.cells_box_free = drawn.cells_box_free;
+    report.cells_exact = drawn.cells_exact;
+    report.rays_exact = drawn.rays_exact;
     local_.finish(config_.blur_radius);
     zones_.fuse(local_);
     return report;

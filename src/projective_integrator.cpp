@@ -8,7 +8,12 @@
 namespace zonemap {
 namespace {
 
-constexpr float kNoRay = -2.0f;  // below every m̂: no ray reaches the cell
+constexpr float kNoRay = -2.0f;
+// Block classes (see classify_blocks).
+constexpr std::uint8_t kBlockMixed = 0;  // look at each cell
+constexpr std::uint8_t kBlockFree = 1;   // every ray near it is free across it
+constexpr std::uint8_t kBlockUnseen =
+    2;  // no ray reaches it (or no pixel sees it)  // below every m̂: no ray reaches the cell
 
 LocalCell quantize(float units) {
   return static_cast<LocalCell>(std::clamp(to_fixed(units), -kCellScale, kCellScale));
@@ -16,8 +21,23 @@ LocalCell quantize(float units) {
 
 }  // namespace
 
+// The pixel rays of one cell, all relative to the camera centre: the ray of pixel
+// (u, v) is δ ↦ δ (w00 + u du + v dv) in world axes (δ: depth along the optical axis).
+struct ProjectiveIntegrator::CellRays {
+  Eigen::Vector3f lo, hi;  // the cell's world box minus the camera centre
+  Eigen::Vector3f w00, du, dv;
+  float a = 0.0f, b = 0.0f;  // the cell's δ-support (camera-frame z range, from d_min)
+  int enough_fixed = 0;      // the ray-by-ray search may stop at this cell value
+};
+
 ProjectiveIntegrator::ProjectiveIntegrator(const MapConfig& config, const CameraModel& camera)
     : cell_size_m_(config.cell_size_m),
+      blocks_{(config.zone_cells[0] + kBlock - 1) / kBlock,
+              (config.zone_cells[1] + kBlock - 1) / kBlock,
+              (config.zone_cells[2] + kBlock - 1) / kBlock},
+      block_count_(static_cast<std::size_t>(blocks_[0]) * static_cast<std::size_t>(blocks_[1]) *
+                   static_cast<std::size_t>(blocks_[2])),
+      block_class_(new std::uint8_t[block_count_]()),
       d_min_(static_cast<float>(config.d_min_m)),
       d_max_(static_cast<float>(config.d_max_m)),
       resolution_factor_(
@@ -27,7 +47,7 @@ ProjectiveIntegrator::ProjectiveIntegrator(const MapConfig& config, const Camera
 
 // m̂ maximised over the part of [a, b] the ray covers: the ray of depth d runs
 // from d_min to min(d + Δd, d_max) (free-only rays to d_max).
-float ProjectiveIntegrator::value_for_code(std::uint16_t code, float a, float b) const {
+inline float ProjectiveIntegrator::value_for_code(std::uint16_t code, float a, float b) const {
   if (code == DepthRangeTable::kFar) return a <= d_max_ ? -1.0f : kNoRay;
   const float d = static_cast<float>(code) * code_to_m_;
   const float resolution = std::max(d * d * resolution_factor_, 1e-6f);
@@ -87,74 +107,221 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   return best;
 }
 
+namespace {
+
+// The δ-interval [t0, t1] of the ray δ ↦ δ w inside the box [lo, hi], from d_min
+// on; false when the ray misses the box.
+inline bool clip_ray(const Eigen::Vector3f& w, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                     float d_min, float* t0, float* t1) {
+  float enter = d_min;
+  float leave = 1e30f;
+  for (int k = 0; k < 3; ++k) {
+    const float inv = 1.0f / w[k];  // ±inf for an axis-parallel ray: handled below
+    float ta = lo[k] * inv, tb = hi[k] * inv;
+    if (ta > tb) std::swap(ta, tb);
+    if (!(ta <= tb)) {  // NaN: 0 * inf, the ray runs in a slab face
+      ta = -1e30f;
+      tb = 1e30f;
+    }
+    enter = std::max(enter, ta);
+    leave = std::min(leave, tb);
+  }
+  *t0 = enter;
+  *t1 = leave;
+  return enter < leave;
+}
+
+}  // namespace
+
+namespace {
+
+// The rays of one row segment, four pixels side by side (GCC/Clang vector
+// extensions: SSE2 on x86-64, NEON on aarch64, no intrinsics): the
+// largest m̂ over the rays' parts inside the box, kNoRay when none crosses it.
+// Same rule as clip_ray + value_for_code, written without branches.
+struct RowRays {
+  const std::uint16_t* codes;  // the segment's first pixel
+  int count;
+  float w0[3];  // direction of the first pixel's ray
+  float dw[3];  // change per pixel
+};
+
+using Lanes = float __attribute__((vector_size(16)));
+inline Lanes lanes_min(Lanes a, Lanes b) {
+  return a < b ? a : b;
+}
+inline Lanes lanes_max(Lanes a, Lanes b) {
+  return a > b ? a : b;
+}
+inline Lanes splat(float v) {
+  return Lanes{v, v, v, v};
+}
+
+float row_best(const RowRays& row, const float lo[3], const float hi[3], float d_min, float d_max,
+               float code_to_m, float resolution_factor) {
+  Lanes best = splat(kNoRay);
+  for (int first = 0; first < row.count; first += 4) {
+    const Lanes index = splat(static_cast<float>(first)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
+    Lanes enter = splat(d_min), leave = splat(1e30f);
+    for (int k = 0; k < 3; ++k) {
+      const Lanes w = splat(row.w0[k]) + index * splat(row.dw[k]);
+      // A ray parallel to a slab: a tiny offset keeps the products finite.
+      const Lanes safe = w < 0.0f ? w - 1e-20f : w + 1e-20f;
+      const Lanes inv = 1.0f / safe;
+      const Lanes ta = splat(lo[k]) * inv, tb = splat(hi[k]) * inv;
+      enter = lanes_max(enter, lanes_min(ta, tb));
+      leave = lanes_min(leave, lanes_max(ta, tb));
+    }
+    Lanes code = splat(static_cast<float>(DepthRangeTable::kMissing));
+    for (int i = 0; i < 4 && first + i < row.count; ++i) {
+      code[i] = static_cast<float>(row.codes[first + i]);
+    }
+    const auto far = code == static_cast<float>(DepthRangeTable::kFar);
+    const auto missing = code == static_cast<float>(DepthRangeTable::kMissing);
+    const Lanes d = code * code_to_m;
+    const Lanes resolution = lanes_max(d * d * resolution_factor, splat(1e-6f));
+    const Lanes end = far ? splat(d_max) : lanes_min(d + resolution, splat(d_max));
+    const Lanes delta = lanes_min(lanes_max(d, enter), lanes_min(leave, end));
+    const Lanes offset = delta - d;
+    // Eq. (4)/(5) as one expression: continuous, -1 up to d - 2Δd, peak at d, 0
+    // at d + Δd (delta never goes past the ray's end).
+    const Lanes peak = 1.0f - (offset < 0.0f ? -offset : offset) / resolution;
+    Lanes value = lanes_max(peak, splat(-1.0f));
+    value = far ? splat(-1.0f) : value;
+    const auto crosses = (missing == 0) & (enter < leave) & (enter <= end);
+    best = lanes_max(best, crosses ? value : splat(kNoRay));
+  }
+  return std::max(std::max(best[0], best[1]), std::max(best[2], best[3]));
+}
+
+}  // namespace
+
 float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, int y0, int x1,
-                                        int y1, const Eigen::Isometry3d& world_T_camera,
-                                        const Eigen::Vector3d& cell_lo) const {
-  const Eigen::Matrix3f r = world_T_camera.linear().cast<float>();
-  const Eigen::Vector3f rel_lo = (cell_lo - world_T_camera.translation()).cast<float>();
-  const Eigen::Vector3f rel_hi =
-      rel_lo + Eigen::Vector3f::Constant(static_cast<float>(cell_size_m_));
-  const Eigen::Vector3f du = r.col(0) / static_cast<float>(camera_.fx);
-  const Eigen::Vector3f dv = r.col(1) / static_cast<float>(camera_.fy);
-  const Eigen::Vector3f w00 =
-      r * Eigen::Vector3f(static_cast<float>(-camera_.cx / camera_.fx),
-                          static_cast<float>(-camera_.cy / camera_.fy), 1.0f);
+                                        int y1, const CellRays& cell, float best,
+                                        std::int64_t* rays) const {
   // The cell's δ-support bounds every ray's part in it: a tile whose best possible
   // value cannot beat the best so far is skipped without looking at its rays.
-  float a = 1e30f, b = -1e30f;
-  for (int k = 0; k < 8; ++k) {
-    const Eigen::Vector3f corner((k & 1) ? rel_hi.x() : rel_lo.x(),
-                                 (k & 2) ? rel_hi.y() : rel_lo.y(),
-                                 (k & 4) ? rel_hi.z() : rel_lo.z());
-    const float depth = r.col(2).dot(corner);
-    a = std::min(a, depth);
-    b = std::max(b, depth);
-  }
-  a = std::max(a, d_min_);
-  constexpr int kTile = 4;
-  float best = kNoRay;
-  for (int ty = y0; ty <= y1; ty += kTile) {
-    for (int tx = x0; tx <= x1; tx += kTile) {
-      const int ex = std::min(tx + kTile - 1, x1), ey = std::min(ty + kTile - 1, y1);
-      std::uint16_t lo = 0, hi = 0;
-      depths.range(tx, ty, ex, ey, &lo, &hi);
-      if (lo > hi) continue;
-      float bound = std::max(value_for_code(lo, a, b), value_for_code(hi, a, b));
-      if (static_cast<float>(hi) * code_to_m_ >= a && static_cast<float>(lo) * code_to_m_ <= b)
+  constexpr int kTileW = 8, kTileH = 4;
+  const float lo[3] = {cell.lo.x(), cell.lo.y(), cell.lo.z()};
+  const float hi[3] = {cell.hi.x(), cell.hi.y(), cell.hi.z()};
+  std::int64_t clipped = 0;
+  for (int ty = y0; ty <= y1; ty += kTileH) {
+    for (int tx = x0; tx <= x1; tx += kTileW) {
+      const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
+      std::uint16_t lo_code = 0, hi_code = 0;
+      depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+      if (lo_code > hi_code) continue;
+      float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
+                             value_for_code(hi_code, cell.a, cell.b));
+      if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
+          static_cast<float>(lo_code) * code_to_m_ <= cell.b)
         bound = 1.0f;
       if (bound <= best) continue;
       for (int v = ty; v <= ey; ++v) {
-        const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
-        Eigen::Vector3f w = w00 + static_cast<float>(tx) * du + static_cast<float>(v) * dv;
-        for (int u = tx; u <= ex; ++u, w += du) {
-          const std::uint16_t code = row[u];
-          if (code == DepthRangeTable::kMissing) continue;
-          float t0 = d_min_;
-          float t1 = 1e30f;
-          for (int k = 0; k < 3; ++k) {
-            const float inv = 1.0f / w[k];  // ±inf for an axis-parallel ray: handled below
-            float ta = rel_lo[k] * inv, tb = rel_hi[k] * inv;
-            if (ta > tb) std::swap(ta, tb);
-            if (!(ta <= tb)) {  // NaN: 0 * inf, the ray runs in a slab face
-              ta = -1e30f;
-              tb = 1e30f;
-            }
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
+        const Eigen::Vector3f w =
+            cell.w00 + static_cast<float>(tx) * cell.du + static_cast<float>(v) * cell.dv;
+        const RowRays row{depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
+                          ex - tx + 1,
+                          {w.x(), w.y(), w.z()},
+                          {cell.du.x(), cell.du.y(), cell.du.z()}};
+        clipped += row.count;
+        best =
+            std::max(best, row_best(row, lo, hi, d_min_, d_max_, code_to_m_, resolution_factor_));
+      }
+      if (best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
+        *rays += clipped;
+        return best;
+      }
+    }
+  }
+  *rays += clipped;
+  return best;
+}
+
+bool ProjectiveIntegrator::free_across(std::uint16_t lo_code, std::uint16_t hi_code,
+                                       float far_end) const {
+  if (lo_code > hi_code) return false;  // every pixel missing
+  if (lo_code == DepthRangeTable::kFar) return far_end <= d_max_;
+  // d - 2 Δd(d), where a ray of depth d stops being free; concave in d, so over
+  // any set of depths its minimum is at the smallest or the largest.
+  const auto free_until = [this](float d) { return d - 2.0f * d * d * resolution_factor_; };
+  const float d_lo = static_cast<float>(lo_code) * code_to_m_;
+  const float d_hi =
+      hi_code == DepthRangeTable::kFar ? d_max_ : static_cast<float>(hi_code) * code_to_m_;
+  return std::min(free_until(d_lo), free_until(d_hi)) > far_end;
+}
+
+// Where the ray of a depth code stops: min(d + Δd, d_max); grows with d.
+float ProjectiveIntegrator::reach(std::uint16_t code) const {
+  const float d = static_cast<float>(code) * code_to_m_;
+  return std::min(d + d * d * resolution_factor_, d_max_);
+}
+
+void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
+                                           const Eigen::Isometry3d& world_T_camera,
+                                           const CellIndex& origin) {
+  const double side = cell_size_m_ * kBlock;
+  const Eigen::Matrix3d rt = world_T_camera.linear().transpose();
+  const Eigen::Vector3d t = world_T_camera.translation();
+  const double half_z = 0.5 * side * rt.row(2).cwiseAbs().sum();
+  const int w = camera_.width, h = camera_.height;
+  const double fx = camera_.fx, fy = camera_.fy, cx = camera_.cx, cy = camera_.cy;
+  Eigen::Vector3d corners[8];
+  for (int k = 0; k < 8; ++k) {
+    corners[k] =
+        rt * Eigen::Vector3d((k & 1) ? side : 0.0, (k & 2) ? side : 0.0, (k & 4) ? side : 0.0);
+  }
+  std::size_t i = 0;
+  for (int bz = 0; bz < blocks_[2]; ++bz) {
+    for (int by = 0; by < blocks_[1]; ++by) {
+      for (int bx = 0; bx < blocks_[0]; ++bx, ++i) {
+        block_class_[i] = kBlockMixed;
+        const Eigen::Vector3d lo = Eigen::Vector3d(origin.x + bx * kBlock, origin.y + by * kBlock,
+                                                   origin.z + bz * kBlock) *
+                                   cell_size_m_;
+        const Eigen::Vector3d pc = rt * (lo - t);  // the block's minimum corner, camera frame
+        const double zc = (rt * (lo + Eigen::Vector3d::Constant(0.5 * side) - t)).z();
+        if (zc + half_z < d_min_ || zc - half_z > d_max_) continue;
+        double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+        bool behind = false;
+        for (const Eigen::Vector3d& o : corners) {
+          const Eigen::Vector3d q = pc + o;
+          if (q.z() < 1e-6) {
+            behind = true;
+            break;
           }
-          if (t0 >= t1) continue;  // this ray misses the cell
-          best = std::max(best, value_for_code(code, t0, t1));
-          if (best >= 1.0f) return best;
+          const double u = fx * q.x() / q.z(), v = fy * q.y() / q.z();
+          u0 = std::min(u0, u);
+          u1 = std::max(u1, u);
+          v0 = std::min(v0, v);
+          v1 = std::max(v1, v);
+        }
+        if (behind) continue;
+        const int px0 = std::max(0, static_cast<int>(std::ceil(u0 + cx)));
+        const int px1 = std::min(w - 1, static_cast<int>(std::floor(u1 + cx)));
+        const int py0 = std::max(0, static_cast<int>(std::ceil(v0 + cy)));
+        const int py1 = std::min(h - 1, static_cast<int>(std::floor(v1 + cy)));
+        if (px0 > px1 || py0 > py1) {
+          block_class_[i] = kBlockUnseen;
+          continue;
+        }
+        std::uint16_t lo_code = 0, hi_code = 0;
+        depths.range(px0, py0, px1, py1, &lo_code, &hi_code);
+        if (lo_code > hi_code || (hi_code != DepthRangeTable::kFar &&
+                                  reach(hi_code) < static_cast<float>(zc - half_z))) {
+          block_class_[i] = kBlockUnseen;  // every pixel missing, or every ray ends before it
+        } else if (free_across(lo_code, hi_code, static_cast<float>(zc + half_z))) {
+          block_class_[i] = kBlockFree;
         }
       }
     }
   }
-  return best;
 }
 
-std::int64_t ProjectiveIntegrator::draw(const DepthRangeTable& depths,
-                                        const Eigen::Isometry3d& world_T_camera,
-                                        LocalGrid& grid) const {
+ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
+                                           const Eigen::Isometry3d& world_T_camera,
+                                           LocalGrid& grid) {
+  classify_blocks(depths, world_T_camera, grid.origin());
   const double s = cell_size_m_;
   const std::array<int, 3>& dims = grid.dims();
   const CellIndex origin = grid.origin();
@@ -191,8 +358,21 @@ std::int64_t ProjectiveIntegrator::draw(const DepthRangeTable& depths,
                                       (k & 4) ? 0.5 * s : -0.5 * s);
   }
   const Eigen::Vector3d step_x_camera = rt.col(0) * s;
+  // Pixel rays in world axes, for the ray-by-ray rule.
+  CellRays cell;
+  {
+    const Eigen::Matrix3f rf = r.cast<float>();
+    cell.du = rf.col(0) / static_cast<float>(fx);
+    cell.dv = rf.col(1) / static_cast<float>(fy);
+    cell.w00 =
+        rf * Eigen::Vector3f(static_cast<float>(-cx / fx), static_cast<float>(-cy / fy), 1.0f);
+  }
+  const auto cell_size = static_cast<float>(s);
+  // The ray of the pixel nearest to a cell's projected centre passes within
+  // 0.75 pixel of the centre: it crosses the cell while the cell spans > 1.5 px.
+  const double quick_max_depth = s * std::min(fx, fy) / 1.5;
 
-  std::int64_t evaluated = 0;
+  ProjectiveStats stats;
   int touched_lo[3] = {dims[0], dims[1], dims[2]};
   int touched_hi[3] = {-1, -1, -1};
   for (int z = 0; z < dims[2]; ++z) {
@@ -228,6 +408,58 @@ std::int64_t ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         const double a = std::max(zc - half.z(), static_cast<double>(d_min_));
         const double b = zc + half.z();
         if (b < d_min_ || a > d_max_) continue;
+        const std::uint8_t block = block_class_[static_cast<std::size_t>(
+            (x / kBlock) + blocks_[0] * ((y / kBlock) + blocks_[1] * (z / kBlock)))];
+        if (block == kBlockUnseen) {
+          ++stats.cells_hidden;
+          continue;
+        }
+        // The bulk of the frustum is free space or hidden behind surfaces. When
+        // every pixel ray near the cell is free across it (known for its whole
+        // block, or from the depth range over a box that holds the cell's
+        // footprint), the ray of the centre pixel crossing it settles the cell:
+        // free. When every such ray ends before the cell, nothing reaches it.
+        if (zc - half.z() >= d_min_ && zc <= quick_max_depth) {
+          const double inv_z = 1.0 / zc;
+          const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
+          const bool centre_ray = uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
+                                  depths.codes()[static_cast<std::size_t>(std::lround(vc)) * w +
+                                                 static_cast<std::size_t>(std::lround(uc))] !=
+                                      DepthRangeTable::kMissing;
+          if (centre_ray && block == kBlockFree) {
+            ++stats.cells_evaluated;
+            ++stats.cells_block_free;
+            grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+            continue;
+          }
+          // The cell's camera-frame box projects into this rectangle.
+          const double near = zc - half.z(), far = zc + half.z();
+          const double inv_near = 1.0 / near, inv_far = 1.0 / far;
+          const double xl = pc.x() - half.x(), xh = pc.x() + half.x();
+          const double yl = pc.y() - half.y(), yh = pc.y() + half.y();
+          const int bx0 = std::max(
+              0, static_cast<int>(std::ceil(fx * std::min(xl * inv_near, xl * inv_far) + cx)));
+          const int bx1 = std::min(
+              w - 1, static_cast<int>(std::floor(fx * std::max(xh * inv_near, xh * inv_far) + cx)));
+          const int by0 = std::max(
+              0, static_cast<int>(std::ceil(fy * std::min(yl * inv_near, yl * inv_far) + cy)));
+          const int by1 = std::min(
+              h - 1, static_cast<int>(std::floor(fy * std::max(yh * inv_near, yh * inv_far) + cy)));
+          if (bx0 > bx1 || by0 > by1) continue;  // no pixel sees the cell
+          std::uint16_t lo_code = 0, hi_code = 0;
+          depths.range(bx0, by0, bx1, by1, &lo_code, &hi_code);
+          if (lo_code > hi_code) continue;  // every pixel near it missing
+          if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(near)) {
+            ++stats.cells_hidden;
+            continue;
+          }
+          if (centre_ray && free_across(lo_code, hi_code, static_cast<float>(far))) {
+            ++stats.cells_evaluated;
+            ++stats.cells_box_free;
+            grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+            continue;
+          }
+        }
         // The image box of the cube's eight projected corners: the pixels whose
         // rays can cross the cell.
         double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
@@ -259,14 +491,44 @@ std::int64_t ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         const int py0 = std::max(0, static_cast<int>(std::ceil(v0)));
         const int py1 = std::min(h - 1, static_cast<int>(std::floor(v1)));
         if (px0 > px1 || py0 > py1) continue;
-        ++evaluated;
-        float value =
-            best_value(depths, px0, py0, px1, py1, static_cast<float>(a), static_cast<float>(b));
-        // Near a surface the value depends on which rays cross the cell and where:
-        // settle it ray by ray, as the reference does.
-        if (value > -1.0f) {
-          value = exact_value(depths, px0, py0, px1, py1, world_T_camera,
-                              (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z)) * s);
+        ++stats.cells_evaluated;
+        cell.a = static_cast<float>(a);
+        cell.b = static_cast<float>(b);
+        // An upper bound U from the footprint's depth range (exact when it says
+        // free). The cell gets U whenever the reference's value has U's sign: a
+        // value never below the reference's (near a surface, a little more
+        // occupied or less free: the safe side), at the sign the reference gives.
+        float value = best_value(depths, px0, py0, px1, py1, cell.a, cell.b);
+        const int upper_fixed = to_fixed(value);
+        if (value > -1.0f && upper_fixed >= 0) {
+          // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
+          // surface (or an unknown 0) where the rays that really cross the cell
+          // are all free. The ray through the cell's centre pixel gives a lower
+          // bound; when it rounds to U's sign the sign is settled, else the rays
+          // are looked at one by one, as the reference does, until one does.
+          cell.lo =
+              (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
+          cell.hi = cell.lo + Eigen::Vector3f::Constant(cell_size);
+          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
+          const int uc =
+              std::clamp(static_cast<int>(std::lround(fx * pc.x() / pc.z() + cx)), px0, px1);
+          const int vc =
+              std::clamp(static_cast<int>(std::lround(fy * pc.y() / pc.z() + cy)), py0, py1);
+          float lower = kNoRay;
+          const std::uint16_t code = depths.codes()[static_cast<std::size_t>(vc) * w + uc];
+          float t0 = 0.0f, t1 = 0.0f;
+          if (code != DepthRangeTable::kMissing &&
+              clip_ray(
+                  cell.w00 + static_cast<float>(uc) * cell.du + static_cast<float>(vc) * cell.dv,
+                  cell.lo, cell.hi, d_min_, &t0, &t1)) {
+            lower = value_for_code(code, t0, t1);
+          }
+          if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
+            ++stats.cells_exact;
+            const float found =
+                exact_value(depths, px0, py0, px1, py1, cell, lower, &stats.rays_exact);
+            if (to_fixed(found) < cell.enough_fixed) value = found;  // a lower sign: exact
+          }
         }
         if (value >= -1.0f) grid.write_max(x, y, z, quantize(value));
       }
@@ -274,7 +536,7 @@ std::int64_t ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   }
   grid.extend_touched(touched_lo[0], touched_lo[1], touched_lo[2], touched_hi[0], touched_hi[1],
                       touched_hi[2]);
-  return evaluated;
+  return stats;
 }
 
 }  // namespace zonemap

@@ -72,6 +72,43 @@ void expect_agreement(const Agreement& a, const std::string& what, double min_sa
   EXPECT_EQ(a.occupied_missed, 0) << what;
 }
 
+TEST(DepthRangeTable, RangesMatchBruteForce) {
+  // Odd sizes so that squares are cut at the right and bottom edges; missing,
+  // far and real codes mixed, with whole missing patches.
+  for (const auto& [width, height] : {std::pair{37, 23}, std::pair{200, 130}, std::pair{1, 9}}) {
+    DepthRangeTable table(width, height);
+    sim::Rng rng(static_cast<std::uint64_t>(width * 1000 + height));
+    for (int i = 0; i < width * height; ++i) {
+      const double r = rng.uniform();
+      table.base()[i] = r < 0.2   ? DepthRangeTable::kMissing
+                        : r < 0.3 ? DepthRangeTable::kFar
+                                  : static_cast<std::uint16_t>(1.0 + rng.uniform() * 65000.0);
+    }
+    for (int y = 3; y < std::min(height, 12); ++y)
+      for (int x = 0; x < std::min(width, 15); ++x)
+        table.base()[y * width + x] = DepthRangeTable::kMissing;
+    table.build();
+    for (int k = 0; k < 3000; ++k) {
+      const auto pick = [&](int n) { return static_cast<int>(rng.uniform() * n); };
+      int x0 = pick(width), x1 = pick(width), y0 = pick(height), y1 = pick(height);
+      if (x0 > x1) std::swap(x0, x1);
+      if (y0 > y1) std::swap(y0, y1);
+      std::uint16_t lo_expected = DepthRangeTable::kMissing, hi_expected = 0;
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          const std::uint16_t v = table.codes()[y * width + x];
+          if (v == DepthRangeTable::kMissing) continue;
+          lo_expected = std::min(lo_expected, v);
+          hi_expected = std::max(hi_expected, v);
+        }
+      std::uint16_t lo = 0, hi = 0;
+      table.range(x0, y0, x1, y1, &lo, &hi);
+      ASSERT_EQ(lo, lo_expected) << x0 << "," << y0 << " .. " << x1 << "," << y1;
+      ASSERT_EQ(hi, hi_expected) << x0 << "," << y0 << " .. " << x1 << "," << y1;
+    }
+  }
+}
+
 TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
   for (const char* name : {"posts-through", "treeline", "bushes", "posts-around"}) {
     sim::Scenario scenario;

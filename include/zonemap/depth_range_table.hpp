@@ -3,6 +3,11 @@
 // pixel, the minimum and maximum over the 2^l x 2^l square starting there). A
 // rectangle is covered by a few overlapping squares. Raw 16-bit depth values
 // keep it small; reserved once for the camera size.
+//
+// Layout, chosen for the query: each level above 0 stores per pixel the pair
+// (min, 0xFFFF - max), so one 32-bit load answers a square and the build is one
+// element-wise minimum over plain uint16 arrays (vectorises on SSE2 and NEON).
+// Level 0 is the frame's codes themselves.
 #pragma once
 
 #include <array>
@@ -18,13 +23,13 @@ class DepthRangeTable {
   static constexpr std::uint16_t kFar = 0xFFFE;      // free up to d_max (sky, > d_max)
   static constexpr std::uint16_t kMissing = 0xFFFF;  // no usable ray
   static constexpr std::uint16_t kMaxDepthCode = 0xFFFD;
-  static constexpr int kMaxLevels = 8;  // squares up to 128 x 128 pixels
+  static constexpr int kMaxLevels = 7;  // squares up to 64 x 64 pixels
 
   DepthRangeTable(int width, int height);
 
   // Level 0: one code per pixel. Then build() makes the other levels.
-  std::uint16_t* base() { return min_[0]; }
-  const std::uint16_t* codes() const { return min_[0]; }
+  std::uint16_t* base() { return codes_.get(); }
+  const std::uint16_t* codes() const { return codes_.get(); }
   void build();
 
   // Minimum and maximum code over [x0, x1] x [y0, y1] (inclusive, inside the
@@ -39,8 +44,9 @@ class DepthRangeTable {
   int width_;
   int height_;
   int levels_;
-  std::array<std::uint16_t*, kMaxLevels> min_{};
-  std::array<std::uint16_t*, kMaxLevels> max_{};  // missing stored as 0 here
+  std::unique_ptr<std::uint16_t[]> codes_;
+  // pairs_[l]: 2 * width * height values, (min, 0xFFFF - max) per pixel; l >= 1.
+  std::array<std::uint16_t*, kMaxLevels> pairs_{};
   std::unique_ptr<std::uint16_t[]> storage_;
   std::size_t bytes_;
 };

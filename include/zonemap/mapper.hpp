@@ -40,6 +40,10 @@ struct FrameReport {
   std::int32_t pixels_too_near = 0;  // depth below d_min: ignored
   std::int32_t zones_allocated = 0;
   std::int64_t cells_visited = 0;
+  std::int64_t cells_block_free = 0;  // projective path: free, settled by the block bound
+  std::int64_t cells_box_free = 0;    // projective path: free, settled by the cell's box
+  std::int64_t cells_exact = 0;       // projective path: cells settled ray by ray
+  std::int64_t rays_exact = 0;        // projective path: rays clipped for them
 };
 
 // True when the pose is finite and its rotation is orthonormal with det +1.
@@ -61,9 +65,12 @@ class Mapper {
   const LocalGrid& local_grid() const { return local_; }
   const MapConfig& config() const { return config_; }
   const CameraModel& camera() const { return camera_; }
-  std::size_t depth_table_bytes() const { return depths_.reserved_bytes(); }
+  // The projective path's depth range table and block flags.
+  std::size_t depth_table_bytes() const {
+    return depths_.reserved_bytes() + projective_.reserved_bytes();
+  }
   std::size_t reserved_bytes() const {
-    return zones_.reserved_bytes() + local_.reserved_bytes() + depths_.reserved_bytes();
+    return zones_.reserved_bytes() + local_.reserved_bytes() + depth_table_bytes();
   }
 
   FusedCell occupied_threshold() const { return occupied_threshold_; }

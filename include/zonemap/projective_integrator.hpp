@@ -5,7 +5,10 @@
 // stays the definition; tests hold this path to it.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
+#include <memory>
 
 #include <Eigen/Geometry>
 
@@ -16,14 +19,30 @@
 
 namespace zonemap {
 
+// What one frame cost, for the bench and the stats: how many cells the bounds
+// settled and how many needed the ray-by-ray rule.
+struct ProjectiveStats {
+  std::int64_t cells_evaluated = 0;   // frustum cells whose footprint holds pixels
+  std::int64_t cells_block_free = 0;  // free: settled by their block's bound and one ray
+  std::int64_t cells_box_free = 0;    // free: settled by their own box's bound and one ray
+  std::int64_t cells_hidden = 0;      // in the frustum, behind every surface: no ray reaches
+  std::int64_t cells_exact = 0;       // settled ray by ray (bounds did not agree)
+  std::int64_t rays_exact = 0;        // pixel rays clipped against those cells
+};
+
 class ProjectiveIntegrator {
  public:
   ProjectiveIntegrator(const MapConfig& config, const CameraModel& camera);
 
-  // Writes the frame into `grid` (already reset to the environment). Returns the
-  // number of cells evaluated.
-  std::int64_t draw(const DepthRangeTable& depths, const Eigen::Isometry3d& world_T_camera,
-                    LocalGrid& grid) const;
+  // Writes the frame into `grid` (already reset to the environment).
+  ProjectiveStats draw(const DepthRangeTable& depths, const Eigen::Isometry3d& world_T_camera,
+                       LocalGrid& grid);
+
+  std::size_t reserved_bytes() const { return block_count_; }
+
+  // Cells are classified in cubes of kBlock^3 first: in a cube every pixel ray
+  // crosses in its free part, a cell is free as soon as one ray crosses it.
+  static constexpr int kBlock = 4;
 
  private:
   // The largest m̂ over the pixels in [x0, x1] x [y0, y1] for a cell whose
@@ -33,10 +52,25 @@ class ProjectiveIntegrator {
   float value_for_code(std::uint16_t code, float a, float b) const;
   // The reference rule over the pixels of the rectangle: each pixel's ray is
   // clipped to the cell (world box [lo, lo + s]) and m̂ maximised over that part.
+  // `best` is a value known to be reached (a lower bound): parts of the footprint
+  // that cannot beat it are skipped. Adds the rays it clipped to *rays.
+  struct CellRays;
   float exact_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
-                    const Eigen::Isometry3d& world_T_camera, const Eigen::Vector3d& cell_lo) const;
+                    const CellRays& cell, float best, std::int64_t* rays) const;
 
   double cell_size_m_;
+  // True when every ray of a depth in [lo, hi] (range-table codes) is still free
+  // at δ = far_end.
+  bool free_across(std::uint16_t lo_code, std::uint16_t hi_code, float far_end) const;
+  float reach(std::uint16_t code) const;  // a real depth's ray ends here
+  // One class per block of the local grid: mixed, free (every ray near it is
+  // free across it) or unseen (no ray reaches it).
+  void classify_blocks(const DepthRangeTable& depths, const Eigen::Isometry3d& world_T_camera,
+                       const CellIndex& origin);
+
+  std::array<int, 3> blocks_{};
+  std::size_t block_count_ = 0;
+  std::unique_ptr<std::uint8_t[]> block_class_;
   float d_min_;
   float d_max_;
   float resolution_factor_;  // Δd = d² * factor (eq. 1)

@@ -69,6 +69,9 @@ MapConfig config_for(double cell, double d_max, MapConfig::Integration integrati
 struct Timing {
   double median_ms = 0, p99_ms = 0;
   double cells_per_frame = 0;
+  double block_free_per_frame = 0;   // projective: settled by the block bound
+  double exact_cells_per_frame = 0;  // projective: settled ray by ray
+  double exact_rays_per_frame = 0;
 };
 
 Timing summarise(std::vector<double> ms, double cells) {
@@ -84,15 +87,23 @@ Timing summarise(std::vector<double> ms, double cells) {
 Timing time_zonemap(const Frames& f, const MapConfig& config) {
   Mapper mapper(config, f.camera);
   std::vector<double> ms;
-  double cells = 0;
+  double cells = 0, block_free = 0, exact_cells = 0, exact_rays = 0;
   for (std::size_t i = 0; i < f.poses.size(); ++i) {
     DepthFrameView view{f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height};
     const auto t0 = Clock::now();
     const FrameReport r = mapper.integrate(view, f.poses[i]);
     ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     cells += static_cast<double>(r.cells_visited);
+    block_free += static_cast<double>(r.cells_block_free + r.cells_box_free);
+    exact_cells += static_cast<double>(r.cells_exact);
+    exact_rays += static_cast<double>(r.rays_exact);
   }
-  return summarise(ms, cells / static_cast<double>(f.poses.size()));
+  const double n = static_cast<double>(f.poses.size());
+  Timing t = summarise(ms, cells / n);
+  t.block_free_per_frame = block_free / n;
+  t.exact_cells_per_frame = exact_cells / n;
+  t.exact_rays_per_frame = exact_rays / n;
+  return t;
 }
 
 #ifdef ZONEMAP_HAVE_OCTOMAP
@@ -132,8 +143,9 @@ void comparison(int frame_count) {
       "generated tree-line flight, d_max 50 m, %d frames; ms median / p99\n\n",
       frame_count);
   const Frames f640 = make_frames(640, frame_count);
-  std::printf("%-6s %-22s %-22s %-22s %-10s %-14s %-10s\n", "cell", "zonemap projective",
-              "zonemap reference", "octomap 1.9.7", "ratio", "cells/frame", "ns/cell");
+  std::printf("%-6s %-22s %-22s %-22s %-10s %-12s %-9s %-18s\n", "cell", "zonemap projective",
+              "zonemap reference", "octomap 1.9.7", "ratio", "cells/frame", "ns/cell",
+              "quick-free / exact cells / rays");
   for (double cell : {1.0, 0.5, 0.25}) {
     const Timing fast =
         time_zonemap(f640, config_for(cell, 50.0, MapConfig::Integration::kProjective));
@@ -154,9 +166,10 @@ void comparison(int frame_count) {
 #endif
     char fast_text[64];
     std::snprintf(fast_text, sizeof(fast_text), "%.1f / %.1f", fast.median_ms, fast.p99_ms);
-    std::printf("%-6.2f %-22s %-22s %-22s %-10s %-14.0f %-10.1f\n", cell, fast_text, ref_text,
-                octo_text, ratio_text, fast.cells_per_frame,
-                fast.median_ms * 1e6 / std::max(1.0, fast.cells_per_frame));
+    std::printf("%-6.2f %-22s %-22s %-22s %-10s %-12.0f %-9.1f %.0f / %.0f / %.0f\n", cell,
+                fast_text, ref_text, octo_text, ratio_text, fast.cells_per_frame,
+                fast.median_ms * 1e6 / std::max(1.0, fast.cells_per_frame),
+                fast.block_free_per_frame, fast.exact_cells_per_frame, fast.exact_rays_per_frame);
   }
   std::printf(
       "\nscaling (projective, 0.5 m cells): image size at d_max 50 m, then d_max at 640x480\n");

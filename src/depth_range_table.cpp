@@ -19,48 +19,47 @@ DepthRangeTable::DepthRangeTable(int width, int height) : width_(width), height_
 
 void DepthRangeTable::build() {
   if (levels_ < 2) return;
-  // Level 1 straight from the codes: 2x2 squares. A missing pixel is 0xFFFF in
-  // both halves (min ignores it; for the max half it must not count either).
+  // Level 1: the pixels' own pairs are written into level 1's storage first,
+  // then turned into 2x2 squares in place (every read is at or after the write
+  // position, so the pass may run forwards). A missing pixel is 0xFFFF in both
+  // halves: min ignores it, and 0xFFFF - max must not count it either.
   {
-    const auto inverted = [](std::uint16_t v) {
-      return static_cast<std::uint16_t>((0xFFFF - v) | (v == kMissing ? 0xFFFF : 0));
-    };
     std::uint16_t* out = pairs_[1];
     const std::uint16_t* c = codes_.get();
-    for (int y = 0; y < height_; ++y) {
-      const std::uint16_t* a = c + static_cast<std::size_t>(y) * width_;
-      const std::uint16_t* b = c + static_cast<std::size_t>(std::min(y + 1, height_ - 1)) * width_;
-      std::uint16_t* o = out + 2 * static_cast<std::size_t>(y) * width_;
-      for (int x = 0; x < width_; ++x) {
-        const int x2 = x + 1 < width_ ? x + 1 : x;
-        o[2 * x] = std::min(std::min(a[x], a[x2]), std::min(b[x], b[x2]));
-        o[2 * x + 1] = std::min(std::min(inverted(a[x]), inverted(a[x2])),
-                                std::min(inverted(b[x]), inverted(b[x2])));
-      }
+    const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint16_t v = c[i];
+      out[2 * i] = v;
+      out[2 * i + 1] = static_cast<std::uint16_t>((0xFFFF - v) | (v == kMissing ? 0xFFFF : 0));
     }
+    square_pass(out, out, 1);
   }
   // Level l from level l-1: the minimum of four pairs, element-wise.
   for (int l = 2; l < levels_; ++l) {
-    const int half = 1 << (l - 1);
-    const std::uint16_t* prev = pairs_[static_cast<std::size_t>(l - 1)];
-    std::uint16_t* out = pairs_[static_cast<std::size_t>(l)];
-    const std::size_t row_values = 2 * static_cast<std::size_t>(width_);
-    const std::size_t inner = 2 * static_cast<std::size_t>(std::max(width_ - half, 0));
-    const std::size_t shift = 2 * static_cast<std::size_t>(half);
-    for (int y = 0; y < height_; ++y) {
-      const std::uint16_t* a = prev + static_cast<std::size_t>(y) * row_values;
-      const std::uint16_t* b =
-          prev + static_cast<std::size_t>(std::min(y + half, height_ - 1)) * row_values;
-      std::uint16_t* o = out + static_cast<std::size_t>(y) * row_values;
-      for (std::size_t i = 0; i < inner; ++i) {
-        o[i] = std::min(std::min(a[i], a[i + shift]), std::min(b[i], b[i + shift]));
-      }
-      // The last columns: the square is cut at the image's right edge.
-      const std::size_t last = row_values - 2;
-      for (std::size_t i = inner; i < row_values; ++i) {
-        const std::size_t j = std::min(i + shift, last + (i & 1));
-        o[i] = std::min(std::min(a[i], a[j]), std::min(b[i], b[j]));
-      }
+    square_pass(pairs_[static_cast<std::size_t>(l - 1)], pairs_[static_cast<std::size_t>(l)],
+                1 << (l - 1));
+  }
+}
+
+// out(x, y) = min of in at (x, y), (x + half, y), (x, y + half), (x + half, y + half),
+// cut at the image's right and bottom edges; element-wise over (min, ~max) pairs.
+void DepthRangeTable::square_pass(const std::uint16_t* in, std::uint16_t* out, int half) const {
+  const std::size_t row_values = 2 * static_cast<std::size_t>(width_);
+  const std::size_t inner = 2 * static_cast<std::size_t>(std::max(width_ - half, 0));
+  const std::size_t shift = 2 * static_cast<std::size_t>(half);
+  for (int y = 0; y < height_; ++y) {
+    const std::uint16_t* a = in + static_cast<std::size_t>(y) * row_values;
+    const std::uint16_t* b =
+        in + static_cast<std::size_t>(std::min(y + half, height_ - 1)) * row_values;
+    std::uint16_t* o = out + static_cast<std::size_t>(y) * row_values;
+    for (std::size_t i = 0; i < inner; ++i) {
+      o[i] = std::min(std::min(a[i], a[i + shift]), std::min(b[i], b[i + shift]));
+    }
+    // The last columns: the square is cut at the image's right edge.
+    const std::size_t last = row_values - 2;
+    for (std::size_t i = inner; i < row_values; ++i) {
+      const std::size_t j = std::min(i + shift, last + (i & 1));
+      o[i] = std::min(std::min(a[i], a[j]), std::min(b[i], b[j]));
     }
   }
 }

@@ -358,6 +358,16 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
                                       (k & 4) ? 0.5 * s : -0.5 * s);
   }
   const Eigen::Vector3d step_x_camera = rt.col(0) * s;
+  int far_corner = 0;  // the corner offset with the largest camera-frame z
+  for (int k = 1; k < 8; ++k) {
+    if (corners[k].z() > corners[far_corner].z()) far_corner = k;
+  }
+  Lanes corner_x[2], corner_y[2], corner_z[2];
+  for (int k = 0; k < 8; ++k) {
+    corner_x[k / 4][k % 4] = static_cast<float>(corners[k].x());
+    corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
+    corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
+  }
   // Pixel rays in world axes, for the ray-by-ray rule.
   CellRays cell;
   {
@@ -461,30 +471,25 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           }
         }
         // The image box of the cube's eight projected corners: the pixels whose
-        // rays can cross the cell.
-        double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
-        bool behind = false;
-        for (const Eigen::Vector3d& o : corners) {
-          const Eigen::Vector3d q = pc + o;
-          if (q.z() < 1e-6) {
-            behind = true;
-            break;
+        // rays can cross the cell (four corners at a time, in float).
+        double u0 = -1e300, u1 = 1e300, v0 = -1e300, v1 = 1e300;
+        {
+          const auto px = static_cast<float>(pc.x()), py = static_cast<float>(pc.y()),
+                     pz = static_cast<float>(pc.z());
+          const Lanes qz0 = splat(pz) + corner_z[0], qz1 = splat(pz) + corner_z[1];
+          const auto behind = (qz0 < 1e-6f) | (qz1 < 1e-6f);
+          if (!(behind[0] | behind[1] | behind[2] | behind[3])) {
+            const Lanes u_a = (splat(px) + corner_x[0]) / qz0,
+                        u_b = (splat(px) + corner_x[1]) / qz1;
+            const Lanes v_a = (splat(py) + corner_y[0]) / qz0,
+                        v_b = (splat(py) + corner_y[1]) / qz1;
+            const Lanes u_lo = lanes_min(u_a, u_b), u_hi = lanes_max(u_a, u_b);
+            const Lanes v_lo = lanes_min(v_a, v_b), v_hi = lanes_max(v_a, v_b);
+            u0 = fx * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx;
+            u1 = fx * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx;
+            v0 = fy * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy;
+            v1 = fy * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy;
           }
-          const double inv = 1.0 / q.z();
-          const double u = fx * q.x() * inv, v = fy * q.y() * inv;
-          u0 = std::min(u0, u);
-          u1 = std::max(u1, u);
-          v0 = std::min(v0, v);
-          v1 = std::max(v1, v);
-        }
-        if (behind) {
-          u0 = v0 = -1e300;
-          u1 = v1 = 1e300;
-        } else {
-          u0 += cx;
-          u1 += cx;
-          v0 += cy;
-          v1 += cy;
         }
         const int px0 = std::max(0, static_cast<int>(std::ceil(u0)));
         const int px1 = std::min(w - 1, static_cast<int>(std::floor(u1)));
@@ -510,18 +515,26 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
               (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
           cell.hi = cell.lo + Eigen::Vector3f::Constant(cell_size);
           cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
-          const int uc =
-              std::clamp(static_cast<int>(std::lround(fx * pc.x() / pc.z() + cx)), px0, px1);
-          const int vc =
-              std::clamp(static_cast<int>(std::lround(fy * pc.y() / pc.z() + cy)), py0, py1);
-          float lower = kNoRay;
-          const std::uint16_t code = depths.codes()[static_cast<std::size_t>(vc) * w + uc];
-          float t0 = 0.0f, t1 = 0.0f;
-          if (code != DepthRangeTable::kMissing &&
-              clip_ray(
-                  cell.w00 + static_cast<float>(uc) * cell.du + static_cast<float>(vc) * cell.dv,
-                  cell.lo, cell.hi, d_min_, &t0, &t1)) {
-            lower = value_for_code(code, t0, t1);
+          // Probes: the ray through the centre, then one through a point near the
+          // corner farthest from the camera (it runs deepest through the cell).
+          const auto probe = [&](const Eigen::Vector3d& point) {
+            const int u = std::clamp(static_cast<int>(std::lround(fx * point.x() / point.z() + cx)),
+                                     px0, px1);
+            const int v = std::clamp(static_cast<int>(std::lround(fy * point.y() / point.z() + cy)),
+                                     py0, py1);
+            const std::uint16_t code = depths.codes()[static_cast<std::size_t>(v) * w + u];
+            float t0 = 0.0f, t1 = 0.0f;
+            if (code == DepthRangeTable::kMissing ||
+                !clip_ray(
+                    cell.w00 + static_cast<float>(u) * cell.du + static_cast<float>(v) * cell.dv,
+                    cell.lo, cell.hi, d_min_, &t0, &t1)) {
+              return kNoRay;
+            }
+            return value_for_code(code, t0, t1);
+          };
+          float lower = probe(pc);
+          if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
+            lower = std::max(lower, probe(pc + 0.75 * corners[far_corner]));
           }
           if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
             ++stats.cells_exact;

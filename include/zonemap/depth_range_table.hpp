@@ -41,6 +41,8 @@ class DepthRangeTable {
   std::size_t reserved_bytes() const { return bytes_; }
 
  private:
+  void square_pass(const std::uint16_t* in, std::uint16_t* out, int half) const;
+
   int width_;
   int height_;
   int levels_;

@@ -134,6 +134,33 @@ TEST(BadConfig, ShippedConfigsLoad) {
   EXPECT_EQ(tum.depth_scale, 5000.0);
 }
 
+TEST(BadConfig, TextLoadersAgreeWithTheFileLoaders) {
+  // The fuzz targets go through the text entry points: they must be the same parser.
+  const auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const std::string flight2 = testing::source_path("config/paper-flight2.yaml");
+  MapConfig from_file, from_text;
+  std::string error;
+  ASSERT_TRUE(hal::load_map_config(flight2, &from_file, &error)) << error;
+  ASSERT_TRUE(hal::load_map_config_text(read(flight2), "flight2", &from_text, &error)) << error;
+  EXPECT_EQ(from_file.zone_cells, from_text.zone_cells);
+  EXPECT_EQ(from_file.cell_size_m, from_text.cell_size_m);
+  EXPECT_EQ(from_file.features.capacity, from_text.features.capacity);
+  EXPECT_FALSE(
+      hal::load_map_config_text("map:\n  zone_cels: [8, 8, 8]\n", "x.yaml", &from_text, &error));
+  EXPECT_NE(error.find("x.yaml:2: unknown key 'zone_cels'"), std::string::npos) << error;
+  const std::string camera = testing::source_path("config/camera-tum-fr1.yaml");
+  CameraModel a, b;
+  ASSERT_TRUE(hal::load_camera_yaml(camera, &a, &error)) << error;
+  ASSERT_TRUE(hal::load_camera_yaml_text(read(camera), "camera", &b, &error)) << error;
+  EXPECT_EQ(a.fx, b.fx);
+  EXPECT_EQ(a.depth_scale, b.depth_scale);
+  EXPECT_FALSE(hal::load_camera_yaml_text("width: [", "cam.yaml", &b, &error));
+  EXPECT_NE(error.find("cam.yaml:"), std::string::npos) << error;
+}
+
 TEST(BadCamera, MissingOrUnknownKeysAreRefused) {
   TempDir dir;
   CameraModel camera;

@@ -60,4 +60,15 @@ inline bool load_file(const std::string& path, YAML::Node* root, std::string* er
   return true;
 }
 
+inline bool load_text(const std::string& text, const std::string& name, YAML::Node* root,
+                      std::string* error) {
+  try {
+    *root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    *error = name + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  }
+  return true;
+}
+
 }  // namespace zonemap::hal

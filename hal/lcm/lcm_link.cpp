@@ -1,6 +1,5 @@
 #include "hal/lcm/lcm_link.hpp"
 
-#include <lcm/eventlog.h>
 #include <lcm/lcm.h>
 #include <poll.h>
 
@@ -132,44 +131,42 @@ LcmLogPoseSource::LcmLogPoseSource(const std::string& channel, bool world_z_up,
       world_z_up_(world_z_up),
       filter_(gate, body_T_camera, time_offset_s, "INS LCM log") {}
 
-LcmLogPoseSource::~LcmLogPoseSource() {
-  if (log_ != nullptr) lcm_eventlog_destroy(log_);
+bool LcmLogPoseSource::open(const std::string& path, std::string* error) {
+  opened_ = reader_.open(path, error);
+  return opened_;
 }
 
-bool LcmLogPoseSource::open(const std::string& path, std::string* error) {
-  log_ = lcm_eventlog_create(path.c_str(), "r");
-  if (log_ == nullptr) {
-    *error = path + ": cannot open as an LCM log";
-    return false;
-  }
-  return true;
+void LcmLogPoseSource::open_memory(const std::uint8_t* data, std::size_t size) {
+  reader_.open_memory(data, size);
+  opened_ = true;
 }
 
 hal::PollResult LcmLogPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
-  if (log_ == nullptr) return hal::PollResult::kEnd;
+  if (!opened_) return hal::PollResult::kEnd;
   for (int i = 0; i < 4096; ++i) {
-    lcm_eventlog_event_t* event = lcm_eventlog_read_next_event(log_);
-    if (event == nullptr) return hal::PollResult::kEnd;  // end, or a torn last event
-    const double now = static_cast<double>(event->timestamp) * 1e-6;
-    if (event->channellen == static_cast<std::int32_t>(channel_.size()) &&
-        std::memcmp(event->channel, channel_.data(), channel_.size()) == 0) {
-      ++messages_;
-      InsSolution solution;
-      const InsDecode result =
-          decode_ins_state(event->data, static_cast<std::size_t>(std::max(event->datalen, 0)),
-                           world_z_up_, &solution);
-      if (result == InsDecode::kOk) {
-        ++solutions_;
-        filter_.pass(solution, sink, now);
-      } else if (result == InsDecode::kMalformed) {
-        ++malformed_;
-        filter_.log().log(13, now, name(), "malformed ins_state_t (fingerprint or length)");
-      } else {
-        ++wrong_frame_;
-        filter_.log().log(12, now, name(), "ins_state_t in another world frame than the map's");
-      }
+    LcmLogEvent event;
+    const LcmLogRead read = reader_.next(&event);
+    if (read == LcmLogRead::kEnd) return hal::PollResult::kEnd;
+    if (read == LcmLogRead::kSkipped) {
+      filter_.log().log(14, last_time_s_, name(), "damaged or oversized log event skipped");
+      continue;
     }
-    lcm_eventlog_free_event(event);
+    const double now = static_cast<double>(event.timestamp_us) * 1e-6;
+    last_time_s_ = now;
+    if (event.channel != channel_) continue;
+    ++messages_;
+    InsSolution solution;
+    const InsDecode result = decode_ins_state(event.data, event.size, world_z_up_, &solution);
+    if (result == InsDecode::kOk) {
+      ++solutions_;
+      filter_.pass(solution, sink, now);
+    } else if (result == InsDecode::kMalformed) {
+      ++malformed_;
+      filter_.log().log(13, now, name(), "malformed ins_state_t (fingerprint or length)");
+    } else {
+      ++wrong_frame_;
+      filter_.log().log(12, now, name(), "ins_state_t in another world frame than the map's");
+    }
   }
   return hal::PollResult::kGotData;
 }
@@ -177,7 +174,7 @@ hal::PollResult LcmLogPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
 hal::PoseSourceCounters LcmLogPoseSource::counters() const {
   hal::PoseSourceCounters c;
   c.messages = messages_;
-  c.malformed = malformed_ + wrong_frame_;
+  c.malformed = malformed_ + wrong_frame_ + reader_.damaged();
   c.solutions = solutions_;
   c.poses_out = filter_.poses_out();
   c.gate = filter_.gate_counters();

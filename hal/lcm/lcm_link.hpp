@@ -13,10 +13,10 @@
 #include <thread>
 
 #include "hal/ins/pose_source.hpp"
+#include "hal/lcm/lcm_log_reader.hpp"
 
 typedef struct _lcm_t lcm_t;
 typedef struct _lcm_recv_buf_t lcm_recv_buf_t;
-typedef struct _lcm_eventlog_t lcm_eventlog_t;
 
 namespace zonemap::lcm_link {
 
@@ -71,8 +71,8 @@ class LcmLogPoseSource final : public hal::PoseSource {
  public:
   LcmLogPoseSource(const std::string& channel, bool world_z_up, const InsGateConfig& gate,
                    const Eigen::Isometry3d& body_T_camera, double time_offset_s);
-  ~LcmLogPoseSource() override;
   bool open(const std::string& path, std::string* error);
+  void open_memory(const std::uint8_t* data, std::size_t size);  // tests, fuzzing
   hal::PollResult poll(hal::PoseSink& sink, int wait_ms) override;
   hal::PoseSourceCounters counters() const override;
   const char* name() const override { return "INS LCM log"; }
@@ -81,7 +81,9 @@ class LcmLogPoseSource final : public hal::PoseSource {
   std::string channel_;
   bool world_z_up_;
   hal::InsPoseFilter filter_;
-  lcm_eventlog_t* log_ = nullptr;
+  LcmLogReader reader_;
+  bool opened_ = false;
+  double last_time_s_ = 0.0;
   std::int64_t messages_ = 0, malformed_ = 0, wrong_frame_ = 0, solutions_ = 0;
 };
 

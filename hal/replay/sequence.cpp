@@ -33,6 +33,11 @@ bool load_frame_list(const std::string& list_path, const std::string& base_dir,
     *error = list_path + ": cannot open";
     return false;
   }
+  return parse_frame_list(in, list_path, base_dir, entries, error);
+}
+
+bool parse_frame_list(std::istream& in, const std::string& list_path, const std::string& base_dir,
+                      std::vector<FrameListEntry>* entries, std::string* error) {
   entries->clear();
   std::string line;
   int number = 0;
@@ -63,6 +68,11 @@ bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
     *error = path + ": cannot open";
     return false;
   }
+  return parse_trajectory(in, path, track, rejected, warnings, error);
+}
+
+bool parse_trajectory(std::istream& in, const std::string& path, PoseTrack* track, int* rejected,
+                      std::vector<std::string>* warnings, std::string* error) {
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {

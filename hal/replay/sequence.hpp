@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,12 @@ bool load_frame_list(const std::string& list_path, const std::string& base_dir,
 // one is refused, counted in *rejected and described in *warnings (file:line).
 bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
                      std::vector<std::string>* warnings, std::string* error);
+
+// The same from a stream (`name` stands for the file in messages): tests, fuzzing.
+bool parse_frame_list(std::istream& in, const std::string& name, const std::string& base_dir,
+                      std::vector<FrameListEntry>* entries, std::string* error);
+bool parse_trajectory(std::istream& in, const std::string& name, PoseTrack* track, int* rejected,
+                      std::vector<std::string>* warnings, std::string* error);
 
 struct ReplayFrame {
   double time_s = 0.0;

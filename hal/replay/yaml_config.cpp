@@ -9,9 +9,8 @@
 
 namespace zonemap::hal {
 
-bool load_map_config(const std::string& path, MapConfig* config, std::string* error) {
-  YAML::Node root;
-  if (!load_file(path, &root, error)) return false;
+static bool parse_map_config(const YAML::Node& root, const std::string& path, MapConfig* config,
+                             std::string* error) {
   MapConfig c;
   try {
     auto zone_cells = [&](const YAML::Node& node) {
@@ -112,9 +111,8 @@ std::string validate_camera(const CameraModel& k) {
   return why.str();
 }
 
-bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string* error) {
-  YAML::Node root;
-  if (!load_file(path, &root, error)) return false;
+static bool parse_camera_yaml(const YAML::Node& root, const std::string& path, CameraModel* camera,
+                              std::string* error) {
   CameraModel k;
   bool seen_width = false, seen_height = false, seen_fx = false, seen_fy = false;
   try {
@@ -169,6 +167,28 @@ bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string*
   }
   *camera = k;
   return true;
+}
+
+bool load_map_config(const std::string& path, MapConfig* config, std::string* error) {
+  YAML::Node root;
+  return load_file(path, &root, error) && parse_map_config(root, path, config, error);
+}
+
+bool load_map_config_text(const std::string& text, const std::string& name, MapConfig* config,
+                          std::string* error) {
+  YAML::Node root;
+  return load_text(text, name, &root, error) && parse_map_config(root, name, config, error);
+}
+
+bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string* error) {
+  YAML::Node root;
+  return load_file(path, &root, error) && parse_camera_yaml(root, path, camera, error);
+}
+
+bool load_camera_yaml_text(const std::string& text, const std::string& name, CameraModel* camera,
+                           std::string* error) {
+  YAML::Node root;
+  return load_text(text, name, &root, error) && parse_camera_yaml(root, name, camera, error);
 }
 
 }  // namespace zonemap::hal

@@ -12,6 +12,11 @@ namespace zonemap::hal {
 
 bool load_map_config(const std::string& path, MapConfig* config, std::string* error);
 bool load_camera_yaml(const std::string& path, CameraModel* camera, std::string* error);
+// The same from text (`name` stands for the file in messages): tests, fuzzing.
+bool load_map_config_text(const std::string& text, const std::string& name, MapConfig* config,
+                          std::string* error);
+bool load_camera_yaml_text(const std::string& text, const std::string& name, CameraModel* camera,
+                           std::string* error);
 
 // Checks a camera model's values (sizes within the build maxima, positive focal
 // lengths, baseline, sigma and depth scale). Empty string when usable.

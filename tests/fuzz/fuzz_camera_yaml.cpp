@@ -1,11 +1,11 @@
-// camera.yaml: strict loader, every error a message, never a crash or an exception out.
+// camera.yaml: strict loader, every error a message, never a crash or an exception
+// out; from memory through the same parser the file loader uses.
 #include "hal/replay/yaml_config.hpp"
-#include "tests/fuzz/fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const std::string& path = zonemap::fuzz::write_scratch(data, size, ".yaml");
   zonemap::CameraModel camera;
   std::string error;
-  zonemap::hal::load_camera_yaml(path, &camera, &error);
+  zonemap::hal::load_camera_yaml_text(std::string(reinterpret_cast<const char*>(data), size),
+                                      "fuzz.yaml", &camera, &error);
   return 0;
 }

@@ -1,11 +1,10 @@
-// The daemon's vehicle.yaml.
-#include "tests/fuzz/fuzz_support.hpp"
+// The daemon's vehicle.yaml, from memory through the same parser the file loader uses.
 #include "tools/daemon/vehicle_config.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const std::string& path = zonemap::fuzz::write_scratch(data, size, ".yaml");
   zonemap::daemon::VehicleConfig config;
   std::string error;
-  zonemap::daemon::load_vehicle_config(path, &config, &error);
+  zonemap::daemon::load_vehicle_config_text(std::string(reinterpret_cast<const char*>(data), size),
+                                            "fuzz.yaml", &config, &error);
   return 0;
 }

@@ -45,9 +45,8 @@ Reader can_id(std::uint32_t* target) {
 
 }  // namespace
 
-bool load_vehicle_config(const std::string& path, VehicleConfig* out, std::string* error) {
-  YAML::Node root;
-  if (!hal::load_file(path, &root, error)) return false;
+static bool parse_vehicle_config(const YAML::Node& root, const std::string& path,
+                                 VehicleConfig* out, std::string* error) {
   VehicleConfig c;
   c.path = path;
   try {
@@ -197,6 +196,17 @@ bool load_vehicle_config(const std::string& path, VehicleConfig* out, std::strin
   c.output_dir = relative_to(path, c.output_dir);
   *out = c;
   return true;
+}
+
+bool load_vehicle_config(const std::string& path, VehicleConfig* out, std::string* error) {
+  YAML::Node root;
+  return hal::load_file(path, &root, error) && parse_vehicle_config(root, path, out, error);
+}
+
+bool load_vehicle_config_text(const std::string& text, const std::string& name, VehicleConfig* out,
+                              std::string* error) {
+  YAML::Node root;
+  return hal::load_text(text, name, &root, error) && parse_vehicle_config(root, name, out, error);
 }
 
 }  // namespace zonemap::daemon

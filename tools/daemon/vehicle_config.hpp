@@ -48,5 +48,8 @@ struct VehicleConfig {
 };
 
 bool load_vehicle_config(const std::string& path, VehicleConfig* config, std::string* error);
+// The same from text (`name` stands for the file in messages): tests, fuzzing.
+bool load_vehicle_config_text(const std::string& text, const std::string& name,
+                              VehicleConfig* config, std::string* error);
 
 }  // namespace zonemap::daemon

@@ -51,14 +51,16 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
-      parent_(new std::uint32_t[capacity_]()) {}
+      parent_(new std::uint32_t[capacity_]()),
+      scratch_(config.zone_cells) {}
 
 std::size_t FeatureMap::reserved_bytes() const {
   const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
   const std::size_t cells = columns * static_cast<std::size_t>(dims_[2]);
   return capacity_ * (sizeof(Feature) + sizeof(std::uint32_t)) + shapes_.reserved_bytes() +
          (cells + 63) / 64 * 8 + cells * sizeof(std::uint32_t) + columns * (1 + 3 * 2) +
-         2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t);
+         2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t) +
+         scratch_.reserved_bytes();
 }
 
 std::size_t FeatureMap::count(FeatureKind kind) const {
@@ -66,7 +68,7 @@ std::size_t FeatureMap::count(FeatureKind kind) const {
       begin(), end(), [kind](const Feature& f) { return f.in_use && f.kind == kind; }));
 }
 
-void FeatureMap::compute_terrain(const ZoneView& zone) {
+void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
   const int nx = dims_[0];
   const int ny = dims_[1];
   const int nz = dims_[2];
@@ -87,12 +89,10 @@ void FeatureMap::compute_terrain(const ZoneView& zone) {
     observed_[static_cast<std::size_t>(y + 1) * stride] = 0;
     for (int x = 0; x < nx; ++x) {
       std::int16_t lowest = kNoHeight;
-      bool known = false;
-      for (int h = 0; h < nz; ++h) {
+      const bool known = zone.column_known(x, y);  // any evidence, free or occupied
+      for (int h = 0; known && h < nz; ++h) {
         const int z = z_up_ ? h : nz - 1 - h;
-        const FusedCell v = zone.cells[zone.index(x, y, z)];
-        known = known || v != 0;  // any evidence, free or occupied
-        if (v > threshold_) {
+        if (zone.occupied(zone.index(x, y, z))) {
           lowest = static_cast<std::int16_t>(h);
           break;
         }
@@ -171,8 +171,12 @@ bool FeatureMap::is_ground_cell(int x, int y, int z) const {
 }
 
 void FeatureMap::extract(const ZoneView& zone) {
+  scratch_.capture(zone, threshold_);
+  extract(scratch_);
+}
+
+void FeatureMap::extract(const ZoneSnapshot& zone) {
   ++counters_.extractions;
-  cells_ = zone.cells;
   const int nx = dims_[0];
   const int ny = dims_[1];
   const int nz = dims_[2];
@@ -180,14 +184,18 @@ void FeatureMap::extract(const ZoneView& zone) {
   compute_terrain(zone);
   std::fill_n(visited_.get(), (total + 63) / 64, std::uint64_t{0});
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-    if (f->in_use && f->zone == zone.key) f->stale = true;
+    if (f->in_use && f->zone == zone.key()) f->stale = true;
   }
   auto visited = [&](std::size_t i) { return (visited_[i >> 6] >> (i & 63)) & 1u; };
   auto mark = [&](std::size_t i) { visited_[i >> 6] |= std::uint64_t{1} << (i & 63); };
   const std::size_t plane = static_cast<std::size_t>(nx) * ny;
 
   for (std::size_t start = 0; start < total; ++start) {
-    if (visited(start) || zone.cells[start] <= threshold_) continue;
+    if ((start & 63) == 0 && zone.occupied_word(start >> 6) == 0) {  // 64 empty cells
+      start += 63;
+      continue;
+    }
+    if (visited(start) || !zone.occupied(start)) continue;
     const int sx = static_cast<int>(start % nx);
     const int sy = static_cast<int>((start / nx) % ny);
     const int sz = static_cast<int>(start / plane);
@@ -212,7 +220,7 @@ void FeatureMap::extract(const ZoneView& zone) {
       hi = {std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z)};
       if (!ground) {
         const int below = z_up_ ? z - 1 : z + 1;
-        if (below >= 0 && below < nz && zone.cells[zone.index(x, y, below)] > threshold_ &&
+        if (below >= 0 && below < nz && zone.occupied(zone.index(x, y, below)) &&
             is_ground_cell(x, y, below)) {
           standing_height =
               std::min(standing_height, terrain_[static_cast<std::size_t>(y) * nx + x] + 1);
@@ -223,7 +231,7 @@ void FeatureMap::extract(const ZoneView& zone) {
       for (const auto& n : neighbour) {
         if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
         const std::size_t j = zone.index(n[0], n[1], n[2]);
-        if (visited(j) || zone.cells[j] <= threshold_) continue;
+        if (visited(j) || !zone.occupied(j)) continue;
         if (is_ground_cell(n[0], n[1], n[2]) != ground) continue;
         mark(j);
         component_[tail++] = static_cast<std::uint32_t>(j);
@@ -249,9 +257,10 @@ void FeatureMap::extract(const ZoneView& zone) {
       const int y = static_cast<int>((i / nx) % ny) - lo.y;
       footprint_[static_cast<std::size_t>(y) * w + x] = 1;
     }
-    upsert(zone, ground ? FeatureKind::kGround : FeatureKind::kObstacle,
-           CellIndex{zone.origin.x + lo.x, zone.origin.y + lo.y, zone.origin.z + lo.z},
-           CellIndex{zone.origin.x + hi.x, zone.origin.y + hi.y, zone.origin.z + hi.z}, count);
+    const CellIndex& origin = zone.origin();
+    upsert(zone.key(), ground ? FeatureKind::kGround : FeatureKind::kObstacle,
+           CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
+           CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z}, count);
   }
   // Objects of this zone that the grid no longer holds.
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
@@ -294,14 +303,14 @@ Feature* FeatureMap::free_slot(double new_relevance) {
   return least;
 }
 
-void FeatureMap::upsert(const ZoneView& zone, FeatureKind kind, const CellIndex& min,
+void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min,
                         const CellIndex& max, std::int32_t cells) {
   // The same object as before: the stale feature of this zone and kind that
   // overlaps the new box most.
   Feature* match = nullptr;
   std::int64_t best = 0;
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-    if (!f->in_use || !f->stale || f->kind != kind || !(f->zone == zone.key)) continue;
+    if (!f->in_use || !f->stale || f->kind != kind || !(f->zone == zone)) continue;
     const std::int64_t v = overlap_volume(f->min, f->max, min, max);
     if (v > best) {
       best = v;
@@ -326,7 +335,7 @@ void FeatureMap::upsert(const ZoneView& zone, FeatureKind kind, const CellIndex&
     ++counters_.features_updated;
   }
   match->kind = kind;
-  match->zone = zone.key;
+  match->zone = zone;
   match->min = min;
   match->max = max;
   match->cells = cells;

@@ -15,6 +15,7 @@
 #include "zonemap/config.hpp"
 #include "zonemap/quadtree.hpp"
 #include "zonemap/zone_map.hpp"
+#include "zonemap/zone_snapshot.hpp"
 
 namespace zonemap {
 
@@ -86,6 +87,9 @@ class FeatureMap : public ZoneObserver {
   // Extracts the features of a zone that holds a grid: its previous features are
   // updated (same object = overlapping box), new ones added, vanished ones removed.
   void extract(const ZoneView& zone);
+  // The same from a snapshot (taken with occupied_threshold(), maybe on another thread).
+  void extract(const ZoneSnapshot& zone);
+  FusedCell occupied_threshold() const { return threshold_; }
 
   // ZoneObserver: re-integration on allocation, extraction before discard.
   void on_zone_allocated(ZoneView& zone) override;
@@ -112,10 +116,10 @@ class FeatureMap : public ZoneObserver {
 
  private:
   bool is_ground_cell(int x, int y, int z) const;
-  void compute_terrain(const ZoneView& zone);
+  void compute_terrain(const ZoneSnapshot& zone);
   // out = minimum of the values within radius r (kNoHeight entries left out).
   void window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp, int r) const;
-  void upsert(const ZoneView& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
+  void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells);
   double relevance(const Feature& f) const;
   bool append_footprint(const Feature& f, FootprintOutput* out) const;
@@ -148,7 +152,7 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::int32_t[]> coverage_;  // (nx + 1) * (ny + 1) summed-area table
   std::unique_ptr<std::int32_t[]> observed_;  // the same for columns with any known cell
   std::unique_ptr<std::uint32_t[]> parent_;   // union-find for merging, per feature
-  const FusedCell* cells_ = nullptr;          // the zone being extracted
+  ZoneSnapshot scratch_;                      // extract(ZoneView) goes through it
 
   double time_s_ = 0.0;
   Eigen::Vector3d vehicle_m_ = Eigen::Vector3d::Zero();

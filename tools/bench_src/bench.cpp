@@ -264,6 +264,23 @@ void BM_FeatureExtractionZone(benchmark::State& state) {
 }
 BENCHMARK(BM_FeatureExtractionZone)->Unit(benchmark::kMillisecond);
 
+void BM_ZoneSnapshotCapture(benchmark::State& state) {
+  const Frames& f = micro_frames();
+  MapConfig config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
+  Mapper mapper(config, f.camera);
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    mapper.integrate({f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height},
+                     f.poses[i]);
+  }
+  ZoneSnapshot snapshot(config.zone_cells);
+  for (auto _ : state) {
+    mapper.zones().for_each_live_zone([&](ZoneView& zone) { snapshot.capture(zone, 96); });
+    benchmark::ClobberMemory();
+  }
+  state.counters["zones"] = mapper.zones().live_zone_count();
+}
+BENCHMARK(BM_ZoneSnapshotCapture)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 int main(int argc, char** argv) {

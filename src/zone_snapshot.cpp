@@ -1,0 +1,57 @@
+#include "zonemap/zone_snapshot.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
+namespace zonemap {
+
+// The bit packing below reads eight flag bytes as one little-endian word.
+static_assert(std::endian::native == std::endian::little);
+
+ZoneSnapshot::ZoneSnapshot(const std::array<int, 3>& dims)
+    : dims_(dims),
+      cells_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
+             static_cast<std::size_t>(dims[2])),
+      occupied_(new std::uint64_t[(cells_ + 63) / 64]()),
+      column_known_(new std::uint8_t[static_cast<std::size_t>(dims[0]) * dims[1]]()) {}
+
+std::size_t ZoneSnapshot::reserved_bytes() const {
+  return (cells_ + 63) / 64 * sizeof(std::uint64_t) + static_cast<std::size_t>(dims_[0]) * dims_[1];
+}
+
+void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold) {
+  key_ = zone.key;
+  origin_ = zone.origin;
+  const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
+  std::fill_n(column_known_.get(), columns, std::uint8_t{0});
+  std::fill_n(occupied_.get(), (cells_ + 63) / 64, std::uint64_t{0});
+  const FusedCell* cells = zone.cells;
+  // Plane by plane: the column flags are an element-wise OR over planes and the
+  // bits are packed 64 cells at a time (both vectorise).
+  for (std::size_t plane = 0; plane < static_cast<std::size_t>(dims_[2]); ++plane) {
+    const FusedCell* p = cells + plane * columns;
+    std::uint8_t* known = column_known_.get();
+    for (std::size_t c = 0; c < columns; ++c) known[c] |= static_cast<std::uint8_t>(p[c] != 0);
+  }
+  const std::size_t full_words = cells_ / 64;
+  for (std::size_t w = 0; w < full_words; ++w) {
+    const FusedCell* p = cells + w * 64;
+    // 64 flags as bytes (a vectorised compare), then 8 flags at a time into bits:
+    // for bytes b_i in {0, 1}, (x * 0x0102040810204080) >> 56 = sum b_i 2^i.
+    std::uint8_t flags[64];
+    for (int b = 0; b < 64; ++b) flags[b] = static_cast<std::uint8_t>(p[b] > occupied_threshold);
+    std::uint64_t word = 0;
+    for (int k = 0; k < 8; ++k) {
+      std::uint64_t x = 0;
+      std::memcpy(&x, flags + 8 * k, 8);
+      word |= ((x * 0x0102040810204080ull) >> 56) << (8 * k);
+    }
+    occupied_[w] = word;
+  }
+  for (std::size_t i = full_words * 64; i < cells_; ++i) {
+    if (cells[i] > occupied_threshold) occupied_[i >> 6] |= std::uint64_t{1} << (i & 63);
+  }
+}
+
+}  // namespace zonemap

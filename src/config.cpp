@@ -64,6 +64,8 @@ std::string validate(const MapConfig& c) {
   } else if (c.runtime.priority_acquisition < 0 || c.runtime.priority_acquisition > 99 ||
              c.runtime.priority_mapping < 0 || c.runtime.priority_mapping > 99 ||
              c.runtime.priority_output < 0 || c.runtime.priority_output > 99 ||
+             c.runtime.priority_extraction < 0 || c.runtime.priority_extraction > 99 ||
+             c.runtime.cpu_extraction < -1 || c.runtime.cpu_extraction > 1023 ||
              c.runtime.cpu_acquisition < -1 || c.runtime.cpu_mapping < -1 ||
              c.runtime.cpu_output < -1 || c.runtime.cpu_acquisition > 1023 ||
              c.runtime.cpu_mapping > 1023 || c.runtime.cpu_output > 1023) {

@@ -357,20 +357,28 @@ bool FeatureMap::feature_contains(const Feature& f, const CellIndex& c) const {
 void FeatureMap::on_zone_allocated(ZoneView& zone) {
   // §IV-B: cells inside a stored object's shape (footprint x z extent) become
   // occupied with a high value; everything else stays unknown.
-  for (const Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-    if (!f->in_use || f->kind != FeatureKind::kObstacle || !(f->zone == zone.key)) continue;
-    for (int z = f->min.z; z <= f->max.z; ++z)
-      for (int y = f->min.y; y <= f->max.y; ++y)
-        for (int x = f->min.x; x <= f->max.x; ++x) {
-          if (f->has_shape &&
-              !shapes_.contains(f->shape, f->shape_side, x - f->min.x, y - f->min.y))
-            continue;
-          FusedCell& cell =
-              zone.cells[zone.index(x - zone.origin.x, y - zone.origin.y, z - zone.origin.z)];
-          cell = std::max(cell, reintegration_value_);
-          ++counters_.cells_reintegrated;
-        }
-  }
+  for_each_reintegration_box(zone.key, [&](const CellIndex& min, const CellIndex& max) {
+    counters_.cells_reintegrated += reintegrate_box(zone, min, max, reintegration_value_);
+  });
+}
+
+std::int64_t FeatureMap::reintegrate_box(ZoneView& zone, const CellIndex& min, const CellIndex& max,
+                                         FusedCell value) {
+  const int x0 = std::max(min.x - zone.origin.x, 0);
+  const int y0 = std::max(min.y - zone.origin.y, 0);
+  const int z0 = std::max(min.z - zone.origin.z, 0);
+  const int x1 = std::min(max.x - zone.origin.x, zone.dims[0] - 1);
+  const int y1 = std::min(max.y - zone.origin.y, zone.dims[1] - 1);
+  const int z1 = std::min(max.z - zone.origin.z, zone.dims[2] - 1);
+  std::int64_t cells = 0;
+  for (int z = z0; z <= z1; ++z)
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        FusedCell& cell = zone.cells[zone.index(x, y, z)];
+        cell = std::max(cell, value);
+        ++cells;
+      }
+  return cells;
 }
 
 std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool include_ground,

@@ -18,6 +18,33 @@ ZoneMap::ZoneMap(const MapConfig& config)
   }
 }
 
+bool ZoneMap::replace_observer(ZoneObserver* current, ZoneObserver* replacement) {
+  for (int i = 0; i < observer_count_; ++i) {
+    if (observers_[static_cast<std::size_t>(i)] == current) {
+      observers_[static_cast<std::size_t>(i)] = replacement;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ZoneMap::live_view(const ZoneKey& key, ZoneView* view) {
+  const Slot* slot = find(key);
+  if (slot == nullptr) return false;
+  *view = view_of(*slot);
+  return true;
+}
+
+bool ZoneMap::nth_live_view(int n, ZoneView* view) {
+  for (const Slot& slot : slots_) {
+    if (slot.live && n-- == 0) {
+      *view = view_of(slot);
+      return true;
+    }
+  }
+  return false;
+}
+
 bool ZoneMap::add_observer(ZoneObserver* observer) {
   if (observer_count_ >= kMaxObservers) return false;
   observers_[static_cast<std::size_t>(observer_count_++)] = observer;

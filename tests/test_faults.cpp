@@ -81,9 +81,7 @@ struct RecordingHooks : runtime::MappingHooks {
   void after_frame(std::size_t index, const Eigen::Isometry3d&, const FrameReport&,
                    double) override {
     if (mapped.size() < mapped.capacity()) mapped.push_back(index);
-    if (index % 8 == 7) {
-      mapper->zones().for_each_live_zone([this](ZoneView& zone) { features->extract(zone); });
-    }
+    // Extraction: the pipeline's own thread (the feature map is not ours to touch here).
   }
 };
 

@@ -118,9 +118,13 @@ std::string test_sequence(const testing::TempDir& dir, const std::string& name, 
   return testing::write_test_scenario(name, dir / "seq", rate, 4, frames);
 }
 
-TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
+// The threaded pipeline (lossless) against the single-threaded replay: the same
+// map cell for cell, the same boxes.csv, the same re-integrated cells.
+void expect_threaded_equals_single(const char* scenario, double rate_hz, int frames,
+                                   int min_box_lines) {
   testing::TempDir dir;
-  const std::string config = test_sequence(dir, "posts-through", 4.0, 40);
+  const std::string config =
+      test_sequence(dir, scenario, rate_hz, static_cast<std::size_t>(frames));
   ASSERT_FALSE(config.empty());
   tools::ReplayOptions options{dir / "seq", config, "", false, true};
   std::string error;
@@ -132,8 +136,9 @@ TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
   runtime::PipelineOptions pipeline;  // lossless
   threaded.run_pipelined(pipeline);
   EXPECT_EQ(threaded.stats().frames_mapped, single.stats().frames_mapped);
-  EXPECT_EQ(threaded.stats().frames_mapped, 40);
-  // The same map, cell for cell, and the same boxes.
+  if (frames > 0) {
+    EXPECT_EQ(threaded.stats().frames_mapped, frames);
+  }
   std::int64_t cells = 0, different = 0;
   single.mapper().zones().for_each_live_zone([&](ZoneView& zone) {
     for (int z = 0; z < zone.dims[2]; ++z)
@@ -147,7 +152,12 @@ TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
         }
   });
   EXPECT_GT(cells, 0);
-  EXPECT_EQ(different, 0);
+  EXPECT_EQ(different, 0) << scenario;
+  EXPECT_EQ(threaded.features().counters().cells_reintegrated,
+            single.features().counters().cells_reintegrated)
+      << scenario;
+  EXPECT_EQ(threaded.features().counters().extractions, single.features().counters().extractions)
+      << scenario;
   ASSERT_TRUE(single.write_outputs(dir / "single", &error)) << error;
   ASSERT_TRUE(threaded.write_outputs(dir / "threaded", &error)) << error;
   std::ifstream a(dir / "single/boxes.csv"), b(dir / "threaded/boxes.csv");
@@ -155,12 +165,25 @@ TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
   sa << a.rdbuf();
   sb << b.rdbuf();
   const std::string single_boxes = sa.str();
-  EXPECT_EQ(single_boxes, sb.str());
-  EXPECT_GE(std::count(single_boxes.begin(), single_boxes.end(), '\n'), 3)
-      << "header, two posts, ground";
+  EXPECT_EQ(single_boxes, sb.str()) << scenario;
+  EXPECT_GE(std::count(single_boxes.begin(), single_boxes.end(), '\n'), min_box_lines) << scenario;
+  std::printf(
+      "[ %s ] %lld frames, %lld cells compared, %lld re-integrated, boxes.csv %zu bytes\n",
+      scenario, static_cast<long long>(single.stats().frames_mapped), static_cast<long long>(cells),
+      static_cast<long long>(single.features().counters().cells_reintegrated), single_boxes.size());
 }
 
-TEST(Pipeline, NoAllocationInTheMappingAndOutputThreads) {
+TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
+  expect_threaded_equals_single("posts-through", 4.0, 40, 3);  // header, two posts, ground
+}
+
+TEST(Pipeline, ThreadedRunEqualsSingleThreadedRunWithZonesComingBack) {
+  // Out and back: zones discarded (extracted on the extraction thread) and
+  // allocated again (its re-integration boxes written by the mapping thread).
+  expect_threaded_equals_single("out-and-back", 1.5, 0, 2);
+}
+
+TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
   testing::TempDir dir;
   const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);  // zones come and go
   tools::ReplayOptions options{dir / "seq", config, "", false, true};
@@ -172,12 +195,17 @@ TEST(Pipeline, NoAllocationInTheMappingAndOutputThreads) {
   run.run_pipelined(pipeline);
   const runtime::PipelineStats& p = run.pipeline_stats();
   std::printf(
-      "[ pipeline ] %lld frames mapped, %lld outputs, zones allocated %lld; mapping thread "
-      "%lld allocations / %lld frees, output thread %lld / %lld; RSS %ld -> %ld bytes\n",
+      "[ pipeline ] %lld frames mapped, %lld outputs, zones allocated %lld, %lld extractions "
+      "on the extraction thread, %lld boxes / %lld cells re-integrated; mapping thread "
+      "%lld allocations / %lld frees, extraction thread %lld / %lld, output thread %lld / %lld; "
+      "RSS %ld -> %ld bytes\n",
       static_cast<long long>(p.frames_mapped), static_cast<long long>(p.outputs_published),
-      static_cast<long long>(run.stats().zones_allocated),
+      static_cast<long long>(run.stats().zones_allocated), static_cast<long long>(p.extractions),
+      static_cast<long long>(p.reintegration_boxes), static_cast<long long>(p.reintegration_cells),
       static_cast<long long>(p.mapping_thread_allocations),
       static_cast<long long>(p.mapping_thread_frees),
+      static_cast<long long>(p.extraction_thread_allocations),
+      static_cast<long long>(p.extraction_thread_frees),
       static_cast<long long>(p.output_thread_allocations),
       static_cast<long long>(p.output_thread_frees), p.rss_after_start, p.rss_at_end);
   EXPECT_GT(p.frames_mapped, 50);
@@ -187,6 +215,10 @@ TEST(Pipeline, NoAllocationInTheMappingAndOutputThreads) {
   EXPECT_EQ(p.mapping_thread_frees, 0);
   EXPECT_EQ(p.output_thread_allocations, 0);
   EXPECT_EQ(p.output_thread_frees, 0);
+  EXPECT_GT(p.extractions, run.stats().zones_discarded);  // discards and periodic ones
+  EXPECT_GT(p.reintegration_cells, 0);  // out and back: the outbound obstacles came back
+  EXPECT_EQ(p.extraction_thread_allocations, 0);
+  EXPECT_EQ(p.extraction_thread_frees, 0);
   EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
 }
 
@@ -290,17 +322,9 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   Mapper mapper(config, sequence.camera());
   FeatureMap features(config, true);
   mapper.zones().add_observer(&features);
-  struct ExtractingHooks : runtime::MappingHooks {  // every live zone, every 10th frame
-    Mapper* mapper;
-    FeatureMap* features;
-    void after_frame(std::size_t index, const Eigen::Isometry3d&, const FrameReport&,
-                     double) override {
-      if (index % 10 != 9) return;
-      mapper->zones().for_each_live_zone([this](ZoneView& zone) { features->extract(zone); });
-    }
+  struct NoHooks : runtime::MappingHooks {  // extraction: the pipeline's own thread
+    void after_frame(std::size_t, const Eigen::Isometry3d&, const FrameReport&, double) override {}
   } hooks;
-  hooks.mapper = &mapper;
-  hooks.features = &features;
   hal::ReplayFrameSource frames(sequence, 0.0);
   ListPoseSource ins(sequence.poses().samples());
   RecordingSink recording;
@@ -335,6 +359,9 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   EXPECT_EQ(s.output_thread_allocations, 0);
   EXPECT_EQ(s.output_thread_frees, 0);
   EXPECT_EQ(s.ins_thread_allocations, 0);
+  EXPECT_GT(s.extractions, 0);
+  EXPECT_EQ(s.extraction_thread_allocations, 0);
+  EXPECT_EQ(s.extraction_thread_frees, 0);
 }
 
 }  // namespace

@@ -23,9 +23,12 @@ TEST(Soak, ShortLoopedFlightKeepsMemoryFlatAndTheStoreBounded) {
   const runtime::PipelineStats& s = five_laps.stats;
   EXPECT_EQ(s.frames_in, 300);
   EXPECT_EQ(s.frames_mapped, 300);
-  EXPECT_EQ(s.mapping_thread_allocations + s.output_thread_allocations + s.ins_thread_allocations,
+  EXPECT_EQ(s.mapping_thread_allocations + s.output_thread_allocations + s.ins_thread_allocations +
+                s.extraction_thread_allocations,
             0);
-  EXPECT_EQ(s.mapping_thread_frees + s.output_thread_frees + s.ins_thread_frees, 0);
+  EXPECT_EQ(s.mapping_thread_frees + s.output_thread_frees + s.ins_thread_frees +
+                s.extraction_thread_frees,
+            0);
   // Resident memory: flat once every code path has run (after the first two laps)
   // within 1 MiB; from start-up within 4 MiB (under qemu-user the emulator's
   // translation cache grows in the same process while new code first runs).

@@ -6,8 +6,10 @@
 
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/realtime.hpp"
+#include "zonemap/extraction_schedule.hpp"
 #include "zonemap/pose_buffer.hpp"
 #include "zonemap/spsc_queue.hpp"
+#include "zonemap/zone_snapshot.hpp"
 
 namespace zonemap::runtime {
 namespace {
@@ -62,6 +64,8 @@ PipelineOptions PipelineOptions::from(const RuntimeConfig& runtime) {
   o.cpu_acquisition = runtime.cpu_acquisition;
   o.cpu_mapping = runtime.cpu_mapping;
   o.cpu_output = runtime.cpu_output;
+  o.priority_extraction = runtime.priority_extraction;
+  o.cpu_extraction = runtime.cpu_extraction;
   return o;
 }
 
@@ -99,8 +103,46 @@ struct Pipeline::Impl {
     hal::HealthSnapshot health;  // the mapping side's counters at this update
   };
   std::array<OutputBuffer, kOutputSlots> outputs;
-  SpscQueue<std::uint32_t, 4> out_filled;  // mapping -> output
+  SpscQueue<std::uint32_t, 4> out_filled;  // extraction -> output
   SpscQueue<std::uint32_t, 4> out_free;    // output -> mapping
+
+  // Mapping -> extraction, in the order the mapping thread meant them: the
+  // extraction thread replays the single-threaded sequence of feature-map calls.
+  struct ExtractionJob {
+    enum class Kind : std::uint8_t { kExtract, kAllocated, kPublish, kEnd };
+    Kind kind = Kind::kEnd;
+    std::uint32_t slot = 0;        // kExtract: snapshot slot; kPublish: output buffer
+    ZoneKey zone;                  // kAllocated
+    std::uint64_t allocation = 0;  // kAllocated: its number
+    double time_s = 0.0;           // the feature map's context (stamps, relevance)
+    double vehicle[3] = {0.0, 0.0, 0.0};
+  };
+  // Extraction -> mapping: the boxes to re-integrate into an allocated zone, then
+  // a marker saying that allocation is answered.
+  struct ReintegrationBox {
+    ZoneKey zone;
+    CellIndex min, max;
+    std::uint64_t allocation = 0;
+    bool answered = false;  // the marker: no box, every box of `allocation` sent
+  };
+  std::vector<std::unique_ptr<ZoneSnapshot>> snapshots;
+  SpscQueue<std::uint32_t, 16> snapshot_free;       // extraction -> mapping
+  SpscQueue<ExtractionJob, 64> jobs;                // mapping -> extraction
+  SpscQueue<ReintegrationBox, 1024> reintegration;  // extraction -> mapping
+  ExtractionSchedule schedule;
+  FusedCell snapshot_threshold;
+  FusedCell reintegration_value;
+  // Mapping-thread state for the feed below.
+  double context_time_s = 0.0;
+  Eigen::Vector3d context_vehicle = Eigen::Vector3d::Zero();
+  std::uint64_t allocations_sent = 0, allocations_answered = 0;
+
+  // Takes the feature map's place among the zone observers during run().
+  struct Feed final : ZoneObserver {
+    Impl* impl = nullptr;
+    void on_zone_allocated(ZoneView& zone) override { impl->zone_allocated(zone); }
+    void on_zone_discarding(const ZoneView& zone) override { impl->zone_discarding(zone); }
+  } feed;
 
   std::atomic<std::int64_t> offered{0};
   std::atomic<bool> stop_requested{false};
@@ -109,7 +151,7 @@ struct Pipeline::Impl {
   std::atomic<std::int64_t> shared_frames_in{0}, shared_rejected{0}, shared_pool_full{0};
   SharedInsCounters ins_counters;
   // Counters, each written by one thread only and read after join.
-  PipelineStats acquisition_stats, mapping_stats, output_stats, ins_stats;
+  PipelineStats acquisition_stats, mapping_stats, output_stats, ins_stats, extraction_stats;
 
   Impl(hal::FrameSource& frame_source, const PoseTrack* replay, hal::PoseSource* live,
        std::span<hal::ObstacleSink* const> sink_list, Mapper& m, FeatureMap& f, MappingHooks& h,
@@ -121,7 +163,15 @@ struct Pipeline::Impl {
         mapper(m),
         features(f),
         hooks(h),
-        options(o) {
+        options(o),
+        schedule(m.config().features.extract_every_frames),
+        snapshot_threshold(f.occupied_threshold()),
+        reintegration_value(f.reintegration_value()) {
+    feed.impl = this;
+    for (std::uint32_t i = 0; i < kSnapshotSlots; ++i) {
+      snapshots.push_back(std::make_unique<ZoneSnapshot>(m.config().zone_cells));
+      snapshot_free.push(i);
+    }
     for (auto& frame : frames) frame = source.make_frame();
     for (std::uint32_t i = 0; i < kFrameSlots; ++i) free_slots.push(i);
     for (auto& out : outputs) {
@@ -268,7 +318,6 @@ struct Pipeline::Impl {
     h->mapping_ms_p50 = s.mapping.percentile(0.50);
     h->mapping_ms_p99 = s.mapping.percentile(0.99);
     h->zones_allocated = static_cast<std::int32_t>(mapper.zones().zones_allocated());
-    h->features = static_cast<std::int32_t>(features.count());
     h->add("pose_waits", s.pose_waits);
     h->add("outputs_skipped", s.outputs_skipped);
     h->add("ins_messages", ins_counters.messages.load(std::memory_order_relaxed));
@@ -277,10 +326,157 @@ struct Pipeline::Impl {
     h->add("ins_reanchors", ins_counters.reanchors.load(std::memory_order_relaxed));
     h->add("dropped_mapper_behind", s.dropped_mapper_behind);
     h->add("dropped_pool_full", shared_pool_full.load(std::memory_order_relaxed));
+    h->add("extractions_deferred", s.extractions_deferred);
+    h->add("reintegration_zone_gone", s.reintegration_zone_gone);
+  }
+
+  // The feature map's part, on the extraction thread (which owns it).
+  void fill_feature_health(hal::HealthSnapshot* h) {
+    h->features = static_cast<std::int32_t>(features.count());
     const FeatureCounters& fc = features.counters();
     h->add("features_evicted", fc.features_evicted);
     h->add("features_dropped", fc.features_dropped);
     h->add("feature_shapes_truncated", fc.shapes_truncated);
+  }
+
+  // --- the mapping thread's side of the feature map ---------------------------
+
+  void push_job(const ExtractionJob& job) {
+    if (!jobs.push(job)) push_waiting(jobs, job);  // holds 64; a frame sends at most ~18
+  }
+
+  ExtractionJob context_job(ExtractionJob::Kind kind) const {
+    ExtractionJob job;
+    job.kind = kind;
+    job.time_s = context_time_s;
+    for (int i = 0; i < 3; ++i) job.vehicle[i] = context_vehicle[i];
+    return job;
+  }
+
+  // Snapshot `zone` into a free slot and hand it over. A discard always gets a
+  // slot (kZonesHeld are kept for discards); `periodic` only takes a spare one.
+  bool send_snapshot(const ZoneView& zone, bool periodic) {
+    PipelineStats& s = mapping_stats;
+    std::uint32_t slot = kEnd;
+    if (periodic) {
+      // Newest wins: skip this round when the extraction thread is behind; lossless
+      // waits, so that the map stays the single-threaded one.
+      while (snapshot_free.size_approx() <= static_cast<std::size_t>(kZonesHeld)) {
+        if (!options.lossless) {
+          ++s.extractions_deferred;
+          return false;
+        }
+        std::this_thread::yield();
+      }
+      snapshot_free.pop(&slot);
+    } else if (!snapshot_free.pop(&slot)) {
+      ++s.snapshot_waits;
+      pop_waiting(snapshot_free, &slot);
+    }
+    snapshots[slot]->capture(zone, snapshot_threshold);
+    ExtractionJob job = context_job(ExtractionJob::Kind::kExtract);
+    job.slot = slot;
+    push_job(job);
+    return true;
+  }
+
+  void zone_discarding(const ZoneView& zone) { send_snapshot(zone, false); }
+
+  void zone_allocated(ZoneView& zone) {
+    ExtractionJob job = context_job(ExtractionJob::Kind::kAllocated);
+    job.zone = zone.key;
+    job.allocation = ++allocations_sent;
+    push_job(job);
+    // Lossless: wait for the boxes now, as the single-threaded replay writes them
+    // here. Newest wins: they are written when they come (next frames).
+    if (options.lossless) apply_reintegration(job.allocation, &zone);
+  }
+
+  // Writes the re-integration boxes that have come; with `until` > 0 waits until
+  // that allocation is answered. `allocating` is the zone being allocated right
+  // now (the ZoneMap is mid-update: it is not looked up there).
+  void apply_reintegration(std::uint64_t until, ZoneView* allocating) {
+    PipelineStats& s = mapping_stats;
+    ReintegrationBox box;
+    while (true) {
+      if (!reintegration.pop(&box)) {
+        if (allocations_answered >= until) return;
+        std::this_thread::yield();
+        continue;
+      }
+      if (box.answered) {
+        allocations_answered = box.allocation;
+        continue;
+      }
+      ZoneView view;
+      ZoneView* target = nullptr;
+      if (allocating != nullptr && allocating->key == box.zone) {
+        target = allocating;
+      } else if (allocating == nullptr && mapper.zones().live_view(box.zone, &view)) {
+        target = &view;
+      }
+      if (target == nullptr) {
+        ++s.reintegration_zone_gone;
+        continue;
+      }
+      ++s.reintegration_boxes;
+      s.reintegration_cells +=
+          FeatureMap::reintegrate_box(*target, box.min, box.max, reintegration_value);
+    }
+  }
+
+  // --- the extraction thread ---------------------------------------------------
+
+  void extraction() {
+    PipelineStats& s = extraction_stats;
+    realtime(options.priority_extraction, options.cpu_extraction, &s, "extraction");
+    os::AllocationScope scope;
+    while (true) {
+      ExtractionJob job;
+      pop_waiting(jobs, &job);
+      if (job.kind == ExtractionJob::Kind::kEnd) break;
+      features.set_context(job.time_s,
+                           Eigen::Vector3d(job.vehicle[0], job.vehicle[1], job.vehicle[2]));
+      switch (job.kind) {
+        case ExtractionJob::Kind::kExtract: {
+          const Clock::time_point start = Clock::now();
+          features.extract(*snapshots[job.slot]);
+          s.extraction.record(ms_between(start, Clock::now()));
+          ++s.extractions;
+          push_waiting(snapshot_free, job.slot);
+          break;
+        }
+        case ExtractionJob::Kind::kAllocated: {
+          features.for_each_reintegration_box(
+              job.zone, [&](const CellIndex& min, const CellIndex& max) {
+                push_waiting(reintegration,
+                             ReintegrationBox{job.zone, min, max, job.allocation, false});
+              });
+          push_waiting(reintegration, ReintegrationBox{job.zone, {}, {}, job.allocation, true});
+          break;
+        }
+        case ExtractionJob::Kind::kPublish: {
+          OutputBuffer& buffer = outputs[job.slot];
+          FootprintOutput shapes;
+          shapes.rects = buffer.rects.data();
+          shapes.capacity = buffer.rects.size();
+          shapes.offsets = buffer.rect_offsets.data();
+          shapes.counts = buffer.rect_counts.data();
+          buffer.count = features.merged(buffer.boxes.data(), buffer.boxes.size(),
+                                         options.include_ground, &shapes);
+          fill_feature_health(&buffer.health);
+          buffer.health.heap_allocations_after_init += scope.counted().allocations;
+          push_waiting(out_filled, job.slot);
+          break;
+        }
+        case ExtractionJob::Kind::kEnd:
+          break;
+      }
+    }
+    const os::AllocationCounts counted = scope.counted();
+    s.extraction_thread_allocations = counted.allocations;
+    s.extraction_thread_frees = counted.frees;
+    push_waiting(out_filled, kEnd);
   }
 
   void mapping() {
@@ -306,6 +502,9 @@ struct Pipeline::Impl {
         }
       }
       const Clock::time_point start = Clock::now();
+      // Newest wins: re-integration boxes that have come since (lossless writes
+      // them while the zone is allocated).
+      if (!options.lossless) apply_reintegration(0, nullptr);
       const SlotInfo info = frame_info[slot];
       s.acquire_to_map_start.record(ms_between(info.acquired, start));
       const hal::ReplayFrame& frame = frames[slot];
@@ -317,7 +516,8 @@ struct Pipeline::Impl {
       }
       DepthFrameView view{frame.depth.data(), frame.has_left ? frame.left.data() : nullptr,
                           mapper.camera().width, mapper.camera().height};
-      features.set_context(frame.time_s, pose.translation());
+      context_time_s = frame.time_s;
+      context_vehicle = pose.translation();
       const double frame_time = frame.time_s;
       const FrameReport report = mapper.integrate(view, pose);
       push_waiting(free_slots, slot);
@@ -326,6 +526,10 @@ struct Pipeline::Impl {
         continue;
       }
       ++s.frames_mapped;
+      // Periodic extraction (the single-threaded replay's schedule).
+      const int pick = schedule.after_frame(s.frames_mapped, mapper.zones().live_zone_count());
+      ZoneView periodic;
+      if (pick >= 0 && mapper.zones().nth_live_view(pick, &periodic)) send_snapshot(periodic, true);
       const double ms = ms_between(start, Clock::now());
       hooks.after_frame(info.frame_index, pose, report, ms);
       s.mapping.record(ms_between(start, Clock::now()));
@@ -334,27 +538,25 @@ struct Pipeline::Impl {
         if (!out_free.pop(&out)) {
           ++s.outputs_skipped;
         } else {
+          // The merged boxes come from the extraction thread, after every job so far.
           OutputBuffer& buffer = outputs[out];
-          FootprintOutput shapes;
-          shapes.rects = buffer.rects.data();
-          shapes.capacity = buffer.rects.size();
-          shapes.offsets = buffer.rect_offsets.data();
-          shapes.counts = buffer.rect_counts.data();
-          buffer.count = features.merged(buffer.boxes.data(), buffer.boxes.size(),
-                                         options.include_ground, &shapes);
           buffer.acquired = info.acquired;
           buffer.time_s = frame_time;
           buffer.world_T_body = pose * options.body_T_camera.inverse();
           fill_health(&buffer.health, s, scope.counted());
-          push_waiting(out_filled, out);
+          ExtractionJob job = context_job(ExtractionJob::Kind::kPublish);
+          job.slot = out;
+          push_job(job);
         }
       }
     }
+    // Every allocation answered before the end, so that no box is left behind.
+    apply_reintegration(allocations_sent, nullptr);
     const os::AllocationCounts counted = scope.counted();
     s.mapping_thread_allocations = counted.allocations;
     s.mapping_thread_frees = counted.frees;
     mapping_done.store(true, std::memory_order_release);
-    push_waiting(out_filled, kEnd);
+    push_job(ExtractionJob{});  // kEnd: the extraction thread passes it on to the output
   }
 
   void output() {
@@ -410,9 +612,10 @@ void add_to_run_stats(const PipelineStats& p, hal::RunStats* s) {
   s->frames_in += p.frames_in;
   s->frames_rejected += p.frames_rejected;
   s->frames_skipped_no_pose += p.frames_skipped_no_pose;
-  s->heap_allocations_after_init +=
-      p.mapping_thread_allocations + p.output_thread_allocations + p.ins_thread_allocations;
-  s->heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees + p.ins_thread_frees;
+  s->heap_allocations_after_init += p.mapping_thread_allocations + p.output_thread_allocations +
+                                    p.ins_thread_allocations + p.extraction_thread_allocations;
+  s->heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees + p.ins_thread_frees +
+                              p.extraction_thread_frees;
   s->pipeline = true;
   s->dropped_mapper_behind += p.dropped_mapper_behind;
   s->dropped_pool_full += p.dropped_pool_full;
@@ -465,7 +668,7 @@ std::size_t Pipeline::reserved_bytes() const {
   return (kFrameSlots + 1) * pixels * 3 +
          kOutputSlots * (boxes * (sizeof(ObstacleBox) + 2 * sizeof(std::uint32_t)) +
                          impl_->options.footprint_rects * sizeof(FootprintRect)) +
-         sizeof(Impl);
+         kSnapshotSlots * impl_->snapshots.front()->reserved_bytes() + sizeof(Impl);
 }
 
 void Pipeline::run() {
@@ -477,7 +680,13 @@ void Pipeline::run() {
   impl_->static_bytes =
       reserved_bytes() + impl_->mapper.reserved_bytes() + impl_->features.reserved_bytes();
   stats_.rss_after_start = os::resident_bytes();
+  // The extraction thread owns the feature map from here: the mapping thread's
+  // zone events go to the feed instead.
+  ZoneMap& zones = impl_->mapper.zones();
+  const bool fed = zones.replace_observer(&impl_->features, &impl_->feed);
+  if (!fed) zones.add_observer(&impl_->feed);
   std::thread output([this] { impl_->output(); });
+  std::thread extraction([this] { impl_->extraction(); });
   std::thread mapping([this] { impl_->mapping(); });
   std::thread ins;
   if (impl_->live_poses != nullptr) ins = std::thread([this] { impl_->ins(); });
@@ -485,12 +694,25 @@ void Pipeline::run() {
   acquisition.join();
   mapping.join();
   if (ins.joinable()) ins.join();
+  extraction.join();
   output.join();
+  if (fed) zones.replace_observer(&impl_->feed, &impl_->features);
   stats_.rss_at_end = os::resident_bytes();
   const PipelineStats& a = impl_->acquisition_stats;
   const PipelineStats& m = impl_->mapping_stats;
   const PipelineStats& o = impl_->output_stats;
   const PipelineStats& i = impl_->ins_stats;
+  const PipelineStats& e = impl_->extraction_stats;
+  impl_->features.add_cells_reintegrated(m.reintegration_cells);
+  stats_.extraction_thread_allocations = e.extraction_thread_allocations;
+  stats_.extraction_thread_frees = e.extraction_thread_frees;
+  stats_.extractions = e.extractions;
+  stats_.extraction = e.extraction;
+  stats_.extractions_deferred = m.extractions_deferred;
+  stats_.snapshot_waits = m.snapshot_waits;
+  stats_.reintegration_boxes = m.reintegration_boxes;
+  stats_.reintegration_cells = m.reintegration_cells;
+  stats_.reintegration_zone_gone = m.reintegration_zone_gone;
   stats_.frames_in = a.frames_in;
   stats_.frames_rejected = a.frames_rejected + m.frames_rejected;
   stats_.dropped_pool_full = a.dropped_pool_full;
@@ -513,7 +735,7 @@ void Pipeline::run() {
   stats_.output_thread_frees = o.output_thread_frees;
   stats_.ins_thread_allocations = i.ins_thread_allocations;
   stats_.ins_thread_frees = i.ins_thread_frees;
-  for (const auto* part : {&a, &m, &o, &i}) {
+  for (const auto* part : {&a, &m, &o, &i, &e}) {
     stats_.warnings.insert(stats_.warnings.end(), part->warnings.begin(), part->warnings.end());
   }
 }

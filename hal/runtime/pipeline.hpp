@@ -1,9 +1,12 @@
 // The onboard runtime around the single-threaded mapping core: acquisition,
-// mapping (+ feature map) and output stages, each its own thread, joined by
+// mapping, feature extraction and output stages, each its own thread, joined by
 // fixed-capacity lock-free SPSC queues. Frames live in a pool reserved at start-up
 // and travel through the queues by index; poses reach the mapper through a
-// lock-free PoseBuffer. The mapping and output threads count their heap
-// allocations from their first loop on (they must stay at zero).
+// lock-free PoseBuffer. The extraction thread owns the feature map: the mapping
+// thread hands it zone snapshots (periodic, and before a zone's grid goes), asks
+// it for the boxes to re-integrate when a zone is allocated, and asks it for the
+// merged boxes of each update. Every thread counts its heap allocations from its
+// first loop on (they must stay at zero).
 #pragma once
 
 #include <atomic>
@@ -43,6 +46,7 @@ struct PipelineOptions {
   int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;  // SCHED_FIFO, 0 = off
   int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;              // -1 = any
   int priority_ins = 0, cpu_ins = -1;                                       // the live INS thread
+  int priority_extraction = 0, cpu_extraction = -1;                         // feature extraction
   double health_period_s = 1.0;                                             // health to the sinks
   bool include_ground = false;                                      // ground boxes to the sinks too
   Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();  // for body-frame outputs
@@ -64,7 +68,15 @@ struct PipelineStats {
   std::int64_t mapping_thread_allocations = 0, mapping_thread_frees = 0;
   std::int64_t output_thread_allocations = 0, output_thread_frees = 0;
   std::int64_t ins_thread_allocations = 0, ins_thread_frees = 0;
-  std::int64_t frames_lost = 0;  // the frame source's sequence gaps
+  std::int64_t extraction_thread_allocations = 0, extraction_thread_frees = 0;
+  std::int64_t extractions = 0;           // zone snapshots extracted on the extraction thread
+  std::int64_t extractions_deferred = 0;  // newest wins: no spare snapshot slot, next round
+  std::int64_t snapshot_waits = 0;        // a discarded zone waited for a snapshot slot
+  std::int64_t reintegration_boxes = 0;   // boxes re-integrated by the mapping thread
+  std::int64_t reintegration_cells = 0;
+  std::int64_t reintegration_zone_gone = 0;  // the zone was discarded before its boxes came
+  LatencyHistogram extraction;               // one zone snapshot extracted
+  std::int64_t frames_lost = 0;              // the frame source's sequence gaps
   std::int64_t health_published = 0;
   bool stopped = false;                   // stop() ended the run before the source did
   LatencyHistogram acquire_to_map_start;  // queueing
@@ -74,11 +86,12 @@ struct PipelineStats {
   long rss_after_start = 0, rss_at_end = 0;
 };
 
-// Hooks into the replay job, called on the mapping thread (must not allocate).
+// Hooks into the replay job, called on the mapping thread (must not allocate, and
+// must not touch the feature map: the extraction thread owns it during run()).
 class MappingHooks {
  public:
   virtual ~MappingHooks() = default;
-  // After each mapped frame: periodic extraction, trajectory, etc.
+  // After each mapped frame: trajectory, timings, etc.
   virtual void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                            const FrameReport& report, double mapping_ms) = 0;
 };
@@ -89,8 +102,11 @@ void add_to_run_stats(const PipelineStats& pipeline, hal::RunStats* stats);
 
 class Pipeline {
  public:
-  static constexpr int kFrameSlots = 8;
+  static constexpr int kFrameSlots = 6;
   static constexpr int kOutputSlots = 3;
+  // Zone snapshots: one per zone that can be discarded at once, plus two for the
+  // periodic extraction in flight.
+  static constexpr int kSnapshotSlots = kZonesHeld + 2;
 
   // Replay: the sequence's frames (paced at options.source_rate_hz) and its poses,
   // pushed as the frames come.

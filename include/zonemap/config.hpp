@@ -53,6 +53,7 @@ struct RuntimeConfig {
   // SCHED_FIFO priority (1..99, 0 = normal scheduling) and CPU (-1 = any) per stage.
   int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;
   int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;
+  int priority_extraction = 0, cpu_extraction = -1;  // the feature-extraction thread
 };
 
 struct MapConfig {

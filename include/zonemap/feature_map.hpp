@@ -5,6 +5,7 @@
 // at construction; extraction and re-integration do not allocate.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -93,6 +94,34 @@ class FeatureMap : public ZoneObserver {
 
   // ZoneObserver: re-integration on allocation, extraction before discard.
   void on_zone_allocated(ZoneView& zone) override;
+
+  // §IV-B as boxes of world cells (inclusive), so that another thread can do the
+  // writing: the stored obstacles of zone `key`, their shapes' full quadtree
+  // squares (clipped to their boxes) over their height. emit(min, max).
+  template <typename Emit>
+  void for_each_reintegration_box(const ZoneKey& key, Emit&& emit) const {
+    for (const Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+      if (!f->in_use || f->kind != FeatureKind::kObstacle || !(f->zone == key)) continue;
+      if (!f->has_shape) {
+        emit(f->min, f->max);
+        continue;
+      }
+      shapes_.for_each_full_square(f->shape, f->shape_side, [&](int sx, int sy, int size) {
+        const CellIndex lo{f->min.x + sx, f->min.y + sy, f->min.z};
+        const CellIndex hi{std::min(f->min.x + sx + size - 1, f->max.x),
+                           std::min(f->min.y + sy + size - 1, f->max.y), f->max.z};
+        if (lo.x <= hi.x && lo.y <= hi.y) emit(lo, hi);
+        return true;
+      });
+    }
+  }
+  // Max-writes `value` into the cells of [min, max] that lie in the zone; returns
+  // how many cells that was.
+  static std::int64_t reintegrate_box(ZoneView& zone, const CellIndex& min, const CellIndex& max,
+                                      FusedCell value);
+  FusedCell reintegration_value() const { return reintegration_value_; }
+  // Cells another thread re-integrated for this map (the pipeline's mapping thread).
+  void add_cells_reintegrated(std::int64_t cells) { counters_.cells_reintegrated += cells; }
   void on_zone_discarding(const ZoneView& zone) override { extract(zone); }
 
   // Merges features of one object cut by zone boundaries. Writes at most

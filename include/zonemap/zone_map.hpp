@@ -57,6 +57,9 @@ class ZoneMap {
   // Observers are told in the order added (e.g. the feature map, then outputs).
   // Returns false when kMaxObservers are already registered.
   bool add_observer(ZoneObserver* observer);
+  // Puts `replacement` where `current` was (false when it was not there): the
+  // pipeline feeds its extraction thread instead of the feature map.
+  bool replace_observer(ZoneObserver* current, ZoneObserver* replacement);
   static constexpr int kMaxObservers = 4;
 
   // The environment cube (zone-sized) centred on `camera_cell`: its minimum corner.
@@ -77,6 +80,10 @@ class ZoneMap {
   ZoneKey key_of(const CellIndex& cell) const;
 
   int live_zone_count() const;
+  // The zone `key` when it holds a grid.
+  bool live_view(const ZoneKey& key, ZoneView* view);
+  // The n-th zone holding a grid (for_each_live_zone order), when there is one.
+  bool nth_live_view(int n, ZoneView* view);
   // Visits the zones that hold a grid; `fn(ZoneView&)`.
   template <typename Fn>
   void for_each_live_zone(Fn&& fn) {

@@ -157,16 +157,7 @@ void VehicleDaemon::after_frame(std::size_t /*frame_index*/, const Eigen::Isomet
                                 const FrameReport& /*report*/, double mapping_ms) {
   ++frames_mapped_;
   if (frame_ms_.size() < frame_ms_.capacity()) frame_ms_.push_back(mapping_ms);
-  // Periodic extraction, one zone per call (bounded work per frame).
-  const std::int64_t stride = std::max(1, map_config_.features.extract_every_frames / kZonesHeld);
-  if (frames_mapped_ % stride != 0) return;
-  const int live = mapper_->zones().live_zone_count();
-  if (live == 0) return;
-  const int pick = static_cast<int>(next_zone_++ % static_cast<std::uint64_t>(live));
-  int k = 0;
-  mapper_->zones().for_each_live_zone([&](ZoneView& zone) {
-    if (k++ == pick) features_->extract(zone);
-  });
+  // Periodic extraction happens on the pipeline's extraction thread.
 }
 
 void VehicleDaemon::run() {

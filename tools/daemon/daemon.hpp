@@ -50,7 +50,6 @@ class VehicleDaemon : private runtime::MappingHooks {
   std::unique_ptr<runtime::Pipeline> pipeline_;
   runtime::PipelineStats stats_;
   hal::PoseSourceCounters pose_counters_;
-  std::uint64_t next_zone_ = 0;
   std::int64_t frames_mapped_ = 0;
   std::vector<double> frame_ms_;
 };

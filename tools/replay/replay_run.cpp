@@ -46,6 +46,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   stats_ = hal::RunStats{};
   stats_.poses_rejected = sequence_.poses_rejected();
   stats_.cell_size_m = config_.cell_size_m;
+  schedule_ = ExtractionSchedule(config_.features.extract_every_frames);
 
   mapper_ = std::make_unique<Mapper>(config_, sequence_.camera());
   features_ = std::make_unique<FeatureMap>(config_, sequence_.camera().world_z_up);
@@ -167,10 +168,12 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   // pipeline's mapping thread too.
   ++stats_.frames_mapped;
   frame_ms_.push_back(mapping_ms);
-  // Periodic extraction one zone at a time, so that no frame pays for all of them:
-  // each zone holding a grid comes round about every extract_every_frames frames.
-  const std::int64_t stride = std::max(1, config_.features.extract_every_frames / kZonesHeld);
-  if (stats_.frames_mapped % stride == 0) extract_next_zone();
+  // Periodic extraction (ExtractionSchedule); the pipeline does its own on its
+  // extraction thread, on the same schedule.
+  if (!in_pipeline_) {
+    const int pick = schedule_.after_frame(stats_.frames_mapped, mapper_->zones().live_zone_count());
+    if (pick >= 0) extract_zone(pick);
+  }
   if (!in_pipeline_) log_feature_store_events();
   trajectory_.push_back(pose.translation());
   mapped_frames_.push_back(frame_index);
@@ -242,17 +245,12 @@ void ReplayRun::extract_live_zones() {
   if (!in_pipeline_) log_feature_store_events();
 }
 
-void ReplayRun::extract_next_zone() {
-  const int live = mapper_->zones().live_zone_count();
-  if (live == 0) return;
-  const int pick = static_cast<int>(next_zone_++ % static_cast<std::uint64_t>(live));
+void ReplayRun::extract_zone(int pick) {
   const auto start = std::chrono::steady_clock::now();
   {
     os::AllocationScope scope;
-    int k = 0;
-    mapper_->zones().for_each_live_zone([&](ZoneView& zone) {
-      if (k++ == pick) features_->extract(zone);
-    });
+    ZoneView zone;
+    if (mapper_->zones().nth_live_view(pick, &zone)) features_->extract(zone);
     const os::AllocationCounts counted = scope.counted();
     stats_.heap_allocations_after_init += counted.allocations;
     stats_.heap_frees_after_init += counted.frees;

@@ -10,6 +10,7 @@
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/runtime/pipeline.hpp"
+#include "zonemap/extraction_schedule.hpp"
 #include "zonemap/mapper.hpp"
 
 namespace zonemap::tools {
@@ -62,7 +63,7 @@ class ReplayRun : private runtime::MappingHooks {
 
  private:
   void log_feature_store_events();
-  void extract_next_zone();
+  void extract_zone(int live_index);
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;
   void account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
@@ -82,9 +83,8 @@ class ReplayRun : private runtime::MappingHooks {
   std::vector<std::size_t> mapped_frames_;
   bool finished_ = false;
   FeatureCounters logged_counters_;
-  bool in_pipeline_ = false;
-  std::uint64_t next_zone_ =
-      0;  // round-robin periodic extraction  // on the mapping thread: count, do not print
+  bool in_pipeline_ = false;  // on the mapping thread: count, do not print
+  ExtractionSchedule schedule_{1};
   runtime::PipelineStats pipeline_stats_;
 };
 

@@ -122,29 +122,10 @@ class SamplingSink final : public hal::ObstacleSink {
   std::vector<SoakSample> samples;
 };
 
-class Extraction final : public runtime::MappingHooks {
+// The pipeline extracts on its own thread; nothing to add per frame.
+class NoHooks final : public runtime::MappingHooks {
  public:
-  Extraction(Mapper& mapper, FeatureMap& features, const MapConfig& config)
-      : mapper_(mapper), features_(features), config_(config) {}
-  void after_frame(std::size_t, const Eigen::Isometry3d&, const FrameReport&, double) override {
-    ++mapped_;
-    const std::int64_t stride = std::max(1, config_.features.extract_every_frames / kZonesHeld);
-    if (mapped_ % stride != 0) return;
-    const int live = mapper_.zones().live_zone_count();
-    if (live == 0) return;
-    const int pick = static_cast<int>(next_++ % static_cast<std::uint64_t>(live));
-    int k = 0;
-    mapper_.zones().for_each_live_zone([&](ZoneView& zone) {
-      if (k++ == pick) features_.extract(zone);
-    });
-  }
-
- private:
-  Mapper& mapper_;
-  FeatureMap& features_;
-  const MapConfig& config_;
-  std::int64_t mapped_ = 0;
-  std::uint64_t next_ = 0;
+  void after_frame(std::size_t, const Eigen::Isometry3d&, const FrameReport&, double) override {}
 };
 
 }  // namespace
@@ -187,7 +168,7 @@ bool run_soak(const SoakOptions& options, SoakResult* result, std::string* error
   Mapper mapper(config, loop.camera);
   FeatureMap features(config, true);
   mapper.zones().add_observer(&features);
-  Extraction hooks(mapper, features, config);
+  NoHooks hooks;
   SamplingSink sink(4096);
   hal::ObstacleSink* sinks[] = {&sink};
   const auto start = Clock::now();

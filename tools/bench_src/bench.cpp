@@ -4,6 +4,8 @@
 //                                      it, per resolution; scaling with image size
 //                                      and d_max
 //   zonemap-bench --micro [gbench args]  Google Benchmark micro benchmarks per stage
+//   zonemap-bench --projective CELL [--frames N]  only the projective path at one cell
+//                                      size (for profiling: perf stat / perf record)
 // One core, same frames for every contender, frames rendered in memory (no I/O).
 #include <benchmark/benchmark.h>
 
@@ -292,8 +294,18 @@ int main(int argc, char** argv) {
     return 0;
   }
   int frames = 12;
+  double only_cell = 0.0;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
+    if (std::strcmp(argv[i], "--projective") == 0) only_cell = std::atof(argv[i + 1]);
+  }
+  if (only_cell > 0.0) {
+    const Frames f = make_frames(640, frames);
+    const Timing t =
+        time_zonemap(f, config_for(only_cell, 50.0, MapConfig::Integration::kProjective));
+    std::printf("projective %.2f m: %.2f ms median, %.2f ms p99, %.0f cells/frame, %.0f exact\n",
+                only_cell, t.median_ms, t.p99_ms, t.cells_per_frame, t.exact_cells_per_frame);
+    return 0;
   }
   comparison(frames);
   return 0;

@@ -210,6 +210,11 @@ void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
   }
   log_feature_store_events();
   finish();
+  // Extraction timing: the pipeline's extraction thread, one zone snapshot each.
+  if (p.extractions > 0) {
+    stats_.extract_ms_p50 = p.extraction.percentile(0.50);
+    stats_.extract_ms_max = p.extraction.max_ms();
+  }
 }
 
 void ReplayRun::finish() {

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -250,36 +251,38 @@ void BM_BlurTouchedRegion(benchmark::State& state) {
 }
 BENCHMARK(BM_BlurTouchedRegion)->Unit(benchmark::kMillisecond);
 
-void BM_FeatureExtractionZone(benchmark::State& state) {
+// A flight-2 mapper with the micro frames integrated: its live zones hold a map.
+std::unique_ptr<Mapper> mapped_flight2(MapConfig* config) {
   const Frames& f = micro_frames();
-  MapConfig config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
-  Mapper mapper(config, f.camera);
+  *config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
+  auto mapper = std::make_unique<Mapper>(*config, f.camera);
   for (std::size_t i = 0; i < f.poses.size(); ++i) {
-    mapper.integrate({f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height},
-                     f.poses[i]);
+    mapper->integrate({f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height},
+                      f.poses[i]);
   }
+  return mapper;
+}
+
+void BM_FeatureExtractionZone(benchmark::State& state) {
+  MapConfig config;
+  const std::unique_ptr<Mapper> mapper = mapped_flight2(&config);
   FeatureMap features(config, true);
   for (auto _ : state) {
-    mapper.zones().for_each_live_zone([&](ZoneView& zone) { features.extract(zone); });
+    mapper->zones().for_each_live_zone([&](ZoneView& zone) { features.extract(zone); });
   }
-  state.counters["zones"] = mapper.zones().live_zone_count();
+  state.counters["zones"] = mapper->zones().live_zone_count();
 }
 BENCHMARK(BM_FeatureExtractionZone)->Unit(benchmark::kMillisecond);
 
 void BM_ZoneSnapshotCapture(benchmark::State& state) {
-  const Frames& f = micro_frames();
-  MapConfig config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
-  Mapper mapper(config, f.camera);
-  for (std::size_t i = 0; i < f.poses.size(); ++i) {
-    mapper.integrate({f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height},
-                     f.poses[i]);
-  }
+  MapConfig config;
+  const std::unique_ptr<Mapper> mapper = mapped_flight2(&config);
   ZoneSnapshot snapshot(config.zone_cells);
   for (auto _ : state) {
-    mapper.zones().for_each_live_zone([&](ZoneView& zone) { snapshot.capture(zone, 96); });
+    mapper->zones().for_each_live_zone([&](ZoneView& zone) { snapshot.capture(zone, 96); });
     benchmark::ClobberMemory();
   }
-  state.counters["zones"] = mapper.zones().live_zone_count();
+  state.counters["zones"] = mapper->zones().live_zone_count();
 }
 BENCHMARK(BM_ZoneSnapshotCapture)->Unit(benchmark::kMillisecond);
 

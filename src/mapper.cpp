@@ -132,6 +132,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     report.cells_visited = drawn.cells_evaluated;
     report.cells_block_free = drawn.cells_block_free;
     report.cells_box_free = drawn.cells_box_free;
+    report.cells_hidden = drawn.cells_hidden;
     report.cells_exact = drawn.cells_exact;
     report.rays_exact = drawn.rays_exact;
     local_.finish(config_.blur_radius);

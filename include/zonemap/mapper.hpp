@@ -42,6 +42,7 @@ struct FrameReport {
   std::int64_t cells_visited = 0;
   std::int64_t cells_block_free = 0;  // projective path: free, settled by the block bound
   std::int64_t cells_box_free = 0;    // projective path: free, settled by the cell's box
+  std::int64_t cells_hidden = 0;      // projective path: behind every surface, skipped
   std::int64_t cells_exact = 0;       // projective path: cells settled ray by ray
   std::int64_t rays_exact = 0;        // projective path: rays clipped for them
 };

@@ -72,7 +72,8 @@ MapConfig config_for(double cell, double d_max, MapConfig::Integration integrati
 struct Timing {
   double median_ms = 0, p99_ms = 0;
   double cells_per_frame = 0;
-  double block_free_per_frame = 0;   // projective: settled by the block bound
+  double block_free_per_frame = 0;   // projective: settled by the block or box bound
+  double hidden_per_frame = 0;       // projective: behind every surface
   double exact_cells_per_frame = 0;  // projective: settled ray by ray
   double exact_rays_per_frame = 0;
 };
@@ -90,7 +91,7 @@ Timing summarise(std::vector<double> ms, double cells) {
 Timing time_zonemap(const Frames& f, const MapConfig& config) {
   Mapper mapper(config, f.camera);
   std::vector<double> ms;
-  double cells = 0, block_free = 0, exact_cells = 0, exact_rays = 0;
+  double cells = 0, block_free = 0, hidden = 0, exact_cells = 0, exact_rays = 0;
   for (std::size_t i = 0; i < f.poses.size(); ++i) {
     DepthFrameView view{f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height};
     const auto t0 = Clock::now();
@@ -98,12 +99,14 @@ Timing time_zonemap(const Frames& f, const MapConfig& config) {
     ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     cells += static_cast<double>(r.cells_visited);
     block_free += static_cast<double>(r.cells_block_free + r.cells_box_free);
+    hidden += static_cast<double>(r.cells_hidden);
     exact_cells += static_cast<double>(r.cells_exact);
     exact_rays += static_cast<double>(r.rays_exact);
   }
   const double n = static_cast<double>(f.poses.size());
   Timing t = summarise(ms, cells / n);
   t.block_free_per_frame = block_free / n;
+  t.hidden_per_frame = hidden / n;
   t.exact_cells_per_frame = exact_cells / n;
   t.exact_rays_per_frame = exact_rays / n;
   return t;
@@ -306,8 +309,11 @@ int main(int argc, char** argv) {
     const Frames f = make_frames(640, frames);
     const Timing t =
         time_zonemap(f, config_for(only_cell, 50.0, MapConfig::Integration::kProjective));
-    std::printf("projective %.2f m: %.2f ms median, %.2f ms p99, %.0f cells/frame, %.0f exact\n",
-                only_cell, t.median_ms, t.p99_ms, t.cells_per_frame, t.exact_cells_per_frame);
+    std::printf(
+        "projective %.2f m: %.2f ms median, %.2f ms p99; per frame %.0f cells evaluated (%.0f "
+        "free by a bound), %.0f hidden, %.0f settled ray by ray (%.0f rays)\n",
+        only_cell, t.median_ms, t.p99_ms, t.cells_per_frame, t.block_free_per_frame,
+        t.hidden_per_frame, t.exact_cells_per_frame, t.exact_rays_per_frame);
     return 0;
   }
   comparison(frames);

@@ -341,8 +341,16 @@ struct Pipeline::Impl {
 
   // --- the mapping thread's side of the feature map ---------------------------
 
+  // Every wait of the mapping thread on the extraction thread also writes the
+  // re-integration boxes that have come: the extraction thread may itself be
+  // waiting for room in that queue (newest wins; lossless has none pending then).
+  void wait_step() {
+    if (!options.lossless) apply_reintegration(0, nullptr);
+    std::this_thread::yield();
+  }
+
   void push_job(const ExtractionJob& job) {
-    if (!jobs.push(job)) push_waiting(jobs, job);  // holds 64; a frame sends at most ~18
+    while (!jobs.push(job)) wait_step();  // holds 64; a frame sends at most ~18
   }
 
   ExtractionJob context_job(ExtractionJob::Kind kind) const {
@@ -366,12 +374,12 @@ struct Pipeline::Impl {
           ++s.extractions_deferred;
           return false;
         }
-        std::this_thread::yield();
+        wait_step();
       }
       snapshot_free.pop(&slot);
     } else if (!snapshot_free.pop(&slot)) {
       ++s.snapshot_waits;
-      pop_waiting(snapshot_free, &slot);
+      while (!snapshot_free.pop(&slot)) wait_step();
     }
     snapshots[slot]->capture(zone, snapshot_threshold);
     ExtractionJob job = context_job(ExtractionJob::Kind::kExtract);

@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
       static_cast<long long>(s.dropped_mapper_behind + s.dropped_pool_full), s.rss_after_start,
       s.rss_at_end,
       static_cast<long long>(s.mapping_thread_allocations + s.output_thread_allocations +
-                             s.ins_thread_allocations),
+                             s.ins_thread_allocations + s.extraction_thread_allocations),
       static_cast<long long>(result.features_at_end), result.features_capacity,
       s.end_to_end.percentile(0.99), out.c_str());
   return 0;

@@ -204,8 +204,12 @@ std::string to_json(const SoakOptions& o, const SoakResult& r) {
     << ", \"deadline_misses\": " << s.deadline_misses
     << ",\n \"allocations_after_init\": {\"mapping\": " << s.mapping_thread_allocations
     << ", \"output\": " << s.output_thread_allocations << ", \"ins\": " << s.ins_thread_allocations
+    << ", \"extraction\": " << s.extraction_thread_allocations
     << "}, \"frees_after_init\": {\"mapping\": " << s.mapping_thread_frees
-    << ", \"output\": " << s.output_thread_frees << ", \"ins\": " << s.ins_thread_frees << "}"
+    << ", \"output\": " << s.output_thread_frees << ", \"ins\": " << s.ins_thread_frees
+    << ", \"extraction\": " << s.extraction_thread_frees << "}"
+    << ",\n \"extractions\": " << s.extractions
+    << ", \"extractions_deferred\": " << s.extractions_deferred
     << ",\n \"rss_bytes\": {\"after_start\": " << s.rss_after_start
     << ", \"at_end\": " << s.rss_at_end << "}, \"static_memory_bytes\": " << r.static_memory_bytes
     << ",\n \"features_at_end\": " << r.features_at_end

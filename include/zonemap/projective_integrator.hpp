@@ -1,8 +1,12 @@
 // The fast integration path (paper §III-B/C semantics without walking rays): each
-// cell of the camera's frustum is visited once, projected into the depth image,
-// and given the largest value of eq. (4)/(5) over the pixels whose rays can cross
-// it, found with a min/max depth range table. The reference (LocalGrid::draw_ray)
-// stays the definition; tests hold this path to it.
+// cell of the camera's frustum is visited once and settled by the cheapest test
+// that can: its 4x4x4 block or a box around its footprint shows every pixel ray
+// ends before it (nothing written) or is free across it (free); else the pixels
+// whose rays can cross it (its eight projected corners) bound eq. (4)/(5) from
+// above with a min/max depth range table, and that bound is written whenever the
+// reference's value has its sign (found by probe rays, then ray by ray). The
+// reference (LocalGrid::draw_ray) stays the definition; tests hold this path to
+// it: the same sign, a value never below the reference's.
 #pragma once
 
 #include <array>

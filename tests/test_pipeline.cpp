@@ -5,6 +5,11 @@
 #include "hal/can/obstacle_can_sink.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
@@ -360,10 +365,19 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   hal::ReplayFrameSource frames(sequence, 0.0);
   ListPoseSource ins(sequence.poses().samples());
   RecordingSink recording;
-  // Real sinks too: MAVLink to a loopback port nobody reads, CAN on a host without
-  // CAN (every open fails: the failure path must not allocate either).
+  // Real sinks too: MAVLink to a loopback socket of ours (a port nobody reads answers
+  // with ICMP, and the next send fails now and then), CAN on a host without CAN
+  // (every open fails: the failure path must not allocate either).
+  const int receiver = socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(receiver, 0);
+  sockaddr_in bound{};
+  bound.sin_family = AF_INET;
+  bound.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t bound_size = sizeof(bound);
+  ASSERT_EQ(bind(receiver, reinterpret_cast<sockaddr*>(&bound), sizeof(bound)), 0);
+  ASSERT_EQ(getsockname(receiver, reinterpret_cast<sockaddr*>(&bound), &bound_size), 0);
   mavlink::MavlinkUdpConfig mavlink_config;
-  mavlink_config.port = 9;  // discard
+  mavlink_config.port = ntohs(bound.sin_port);
   mavlink_config.rate_hz = 1000;
   mavlink::MavlinkUdpSink mavlink(mavlink_config);
   ASSERT_TRUE(mavlink.open(&error)) << error;
@@ -387,6 +401,8 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   EXPECT_GT(recording.last_health.static_memory_bytes, 0);
   EXPECT_GT(recording.last_health.named, 5);
   EXPECT_EQ(mavlink.sent(), s.outputs_published);
+  EXPECT_EQ(mavlink.failed(), 0);
+  close(receiver);
   EXPECT_EQ(s.mapping_thread_allocations, 0);
   EXPECT_EQ(s.output_thread_allocations, 0);
   EXPECT_EQ(s.output_thread_frees, 0);

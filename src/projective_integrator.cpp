@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "zonemap/sensor_model.hpp"
 
@@ -56,57 +57,6 @@ inline float ProjectiveIntegrator::value_for_code(std::uint16_t code, float a, f
   return sensor_model_value(std::clamp(d, a, std::min(b, end)), d, resolution);
 }
 
-float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
-                                       int y1, float a, float b) const {
-  // m̂ is unimodal in d with its plateau for d in [a, b]: over a set of depths
-  // entirely below a the largest one decides, entirely above b the smallest. Only
-  // a rectangle whose depths straddle [a, b] across a gap (an edge in front of
-  // a background) is split, down to single pixels if need be.
-  struct Rect {
-    int x0, y0, x1, y1;
-  };
-  Rect stack[64];
-  int top = 0;
-  stack[top++] = {x0, y0, x1, y1};
-  float best = kNoRay;
-  const float a_code = a / code_to_m_;
-  const float b_code = b / code_to_m_;
-  while (top > 0) {
-    const Rect r = stack[--top];
-    std::uint16_t lo = 0, hi = 0;
-    depths.range(r.x0, r.y0, r.x1, r.y1, &lo, &hi);
-    if (lo > hi) continue;  // no usable pixel
-    if (static_cast<float>(hi) < a_code) {
-      best = std::max(best, value_for_code(hi, a, b));
-      continue;
-    }
-    if (static_cast<float>(lo) > b_code) {
-      best = std::max(best, value_for_code(lo, a, b));
-      continue;
-    }
-    // lo <= b and hi >= a. A pixel with its depth inside [a, b] is the peak.
-    if (static_cast<float>(lo) >= a_code || static_cast<float>(hi) <= b_code) return 1.0f;
-    // lo < a <= b < hi. On a continuous surface (depths spread over less than
-    // half Δd) the depths next to a and b are within Δd/2 of them, so the
-    // largest m̂ is in [0.5, 1]: take the peak.
-    const float lo_m = static_cast<float>(lo) * code_to_m_;
-    const float hi_m = hi == DepthRangeTable::kFar ? 1e30f : static_cast<float>(hi) * code_to_m_;
-    if (hi_m - lo_m <= 0.5f * lo_m * lo_m * resolution_factor_) return 1.0f;
-    // Split along the longer side (a single pixel never gets here: lo == hi).
-    if (top + 2 > 64) return 1.0f;  // cannot happen for images up to 2^32 pixels
-    if (r.x1 - r.x0 >= r.y1 - r.y0) {
-      const int mid = (r.x0 + r.x1) / 2;
-      stack[top++] = {r.x0, r.y0, mid, r.y1};
-      stack[top++] = {mid + 1, r.y0, r.x1, r.y1};
-    } else {
-      const int mid = (r.y0 + r.y1) / 2;
-      stack[top++] = {r.x0, r.y0, r.x1, mid};
-      stack[top++] = {r.x0, mid + 1, r.x1, r.y1};
-    }
-  }
-  return best;
-}
-
 namespace {
 
 // The δ-interval [t0, t1] of the ray δ ↦ δ w inside the box [lo, hi], from d_min
@@ -157,6 +107,85 @@ inline Lanes splat(float v) {
   return Lanes{v, v, v, v};
 }
 
+// Where a rectangle's codes lie around the codes [lo, hi] of a cell's depth
+// interval: whether one is inside, the largest below and the smallest above
+// (kFar counts as above, missing pixels nowhere). Eight codes at a time.
+struct CodeSides {
+  bool inside = false;
+  bool any_below = false, any_above = false;
+  std::uint16_t below = 0, above = 0;
+};
+
+CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int x1, int y1,
+                     std::uint16_t lo, std::uint16_t hi) {
+  using Codes = std::uint16_t __attribute__((vector_size(16)));
+  const auto splat16 = [](std::uint16_t v) { return Codes{v, v, v, v, v, v, v, v}; };
+  const Codes lo_v = splat16(lo), hi_v = splat16(hi), missing_v = splat16(0xFFFF);
+  const Codes one = splat16(1), zero = splat16(0);
+  // Per lane: lo - c for codes below (else 0) and c - hi for codes above (else 0),
+  // minus one so that "none" is 0xFFFF; minima over all lanes.
+  Codes below_gap = missing_v, above_gap = missing_v, inside = zero;
+  const auto add = [&](Codes c) {
+    const Codes is_below = reinterpret_cast<Codes>(c < lo_v);
+    const Codes is_above = reinterpret_cast<Codes>(c > hi_v);
+    const Codes is_missing = reinterpret_cast<Codes>(c == missing_v);
+    const Codes b = ((lo_v - c) & is_below) - one;
+    const Codes u = (((c - hi_v) & is_above) - one) | is_missing;
+    below_gap = b < below_gap ? b : below_gap;
+    above_gap = u < above_gap ? u : above_gap;
+    inside |= ~(is_below | is_above);  // missing codes are above
+  };
+  const Codes lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  if (x1 - x0 + 1 < 8) {
+    // Narrow: one load inside the image, lanes outside the rectangle made missing.
+    const int start = std::min(x0, width - 8);
+    const auto first = static_cast<std::uint16_t>(x0 - start);
+    const auto last = static_cast<std::uint16_t>(x1 - start);
+    const Codes outside = reinterpret_cast<Codes>((lane < splat16(first)) | (lane > splat16(last)));
+    for (int y = y0; y <= y1; ++y) {
+      Codes c;
+      std::memcpy(&c, codes + static_cast<std::size_t>(y) * width + start, sizeof c);
+      add(c | outside);
+    }
+  } else {
+    // Loads of eight, the last one ending at x1 (overlaps change no minimum).
+    // Rows from the middle out: a code inside [lo, hi] ends the scan, and on a
+    // noisy surface one is usually found in the first rows.
+    const int middle = (y0 + y1) / 2;
+    for (int k = 0, up = middle, down = middle - 1; up <= y1 || down >= y0; ++k) {
+      const bool take_up = up <= y1 && ((k & 1) == 0 || down < y0);
+      const int y = take_up ? up++ : down--;
+      const std::uint16_t* row = codes + static_cast<std::size_t>(y) * width;
+      for (int x = x0;; x += 8) {
+        const int start = std::min(x, x1 - 7);
+        Codes c;
+        std::memcpy(&c, row + start, sizeof c);
+        add(c);
+        if (start + 8 > x1) break;
+      }
+      std::uint64_t found[2];
+      std::memcpy(found, &inside, sizeof found);
+      if ((found[0] | found[1]) != 0) {
+        CodeSides sides;
+        sides.inside = true;
+        return sides;
+      }
+    }
+  }
+  CodeSides sides;
+  std::uint16_t b = 0xFFFF, u = 0xFFFF;
+  for (int i = 0; i < 8; ++i) {
+    b = std::min(b, below_gap[i]);
+    u = std::min(u, above_gap[i]);
+    sides.inside = sides.inside || inside[i] != 0;
+  }
+  sides.any_below = b != 0xFFFF;
+  sides.any_above = u != 0xFFFF;
+  sides.below = static_cast<std::uint16_t>(lo - 1 - b);
+  sides.above = static_cast<std::uint16_t>(hi + 1 + u);
+  return sides;
+}
+
 float row_best(const RowRays& row, const float lo[3], const float hi[3], float d_min, float d_max,
                float code_to_m, float resolution_factor) {
   Lanes best = splat(kNoRay);
@@ -196,43 +225,98 @@ float row_best(const RowRays& row, const float lo[3], const float hi[3], float d
 
 }  // namespace
 
+constexpr int kScanArea = 128;
+
+float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
+                                       int y1, float a, float b) const {
+  // m̂ is unimodal in d with its plateau for d in [a, b]: over a set of depths
+  // entirely below a the largest one decides, entirely above b the smallest.
+  std::uint16_t lo = 0, hi = 0;
+  depths.range(x0, y0, x1, y1, &lo, &hi);
+  if (lo > hi) return kNoRay;  // no usable pixel
+  const float a_code = a / code_to_m_;
+  const float b_code = b / code_to_m_;
+  if (static_cast<float>(hi) < a_code) return value_for_code(hi, a, b);
+  if (static_cast<float>(lo) > b_code) return value_for_code(lo, a, b);
+  // lo <= b and hi >= a. A pixel with its depth inside [a, b] is the peak.
+  if (static_cast<float>(lo) >= a_code || static_cast<float>(hi) <= b_code) return 1.0f;
+  // lo < a <= b < hi. On a continuous surface (depths spread over less than
+  // half Δd) the depths next to a and b are within Δd/2 of them, so the
+  // largest m̂ is in [0.5, 1]: take the peak.
+  const float lo_m = static_cast<float>(lo) * code_to_m_;
+  const float hi_m = hi == DepthRangeTable::kFar ? 1e30f : static_cast<float>(hi) * code_to_m_;
+  if (hi_m - lo_m <= 0.5f * lo_m * lo_m * resolution_factor_) return 1.0f;
+  // Depths on both sides of [a, b] (a noisy surface, or an edge with the cell
+  // between its sides): the codes themselves say which are nearest on each side.
+  const float top = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  const auto inside_lo = static_cast<std::uint16_t>(std::clamp(std::ceil(a_code), 1.0f, top));
+  const auto inside_hi = static_cast<std::uint16_t>(std::clamp(std::floor(b_code), 0.0f, top));
+  const CodeSides sides =
+      code_sides(depths.codes(), depths.width(), x0, y0, x1, y1, inside_lo, inside_hi);
+  if (sides.inside) return 1.0f;
+  float best = kNoRay;
+  if (sides.any_below) best = value_for_code(sides.below, a, b);
+  if (sides.any_above) best = std::max(best, value_for_code(sides.above, a, b));
+  return best;
+}
+
 float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                         int y1, const CellRays& cell, float best,
                                         std::int64_t* rays) const {
-  // The cell's δ-support bounds every ray's part in it: a tile whose best possible
-  // value cannot beat the best so far is skipped without looking at its rays.
+  // The cell's δ-support bounds every ray's part in it, so each tile of the
+  // footprint has a bound from its depth range. The first pass looks only at
+  // tiles whose bound reaches the sign sought (cell.enough_fixed) and stops at the
+  // first ray that does; when none does, the sign is lower and the second pass
+  // takes the exact maximum over the other tiles (those that can beat `best`).
   constexpr int kTileW = 8, kTileH = 4;
   const float lo[3] = {cell.lo.x(), cell.lo.y(), cell.lo.z()};
   const float hi[3] = {cell.hi.x(), cell.hi.y(), cell.hi.z()};
   std::int64_t clipped = 0;
-  for (int ty = y0; ty <= y1; ty += kTileH) {
-    for (int tx = x0; tx <= x1; tx += kTileW) {
-      const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
-      std::uint16_t lo_code = 0, hi_code = 0;
-      depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
-      if (lo_code > hi_code) continue;
-      float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
-                             value_for_code(hi_code, cell.a, cell.b));
-      if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
-          static_cast<float>(lo_code) * code_to_m_ <= cell.b)
-        bound = 1.0f;
-      if (bound <= best) continue;
-      for (int v = ty; v <= ey; ++v) {
-        const Eigen::Vector3f w =
-            cell.w00 + static_cast<float>(tx) * cell.du + static_cast<float>(v) * cell.dv;
-        const RowRays row{depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
-                          ex - tx + 1,
-                          {w.x(), w.y(), w.z()},
-                          {cell.du.x(), cell.du.y(), cell.du.z()}};
-        clipped += row.count;
-        best =
-            std::max(best, row_best(row, lo, hi, d_min_, d_max_, code_to_m_, resolution_factor_));
-      }
-      if (best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
-        *rays += clipped;
-        return best;
+  bool skipped = false;
+  bool crossed = false;  // (second pass) some ray is known to cross the cell
+  for (int pass = 0; pass < 2; ++pass) {
+    crossed = best >= -1.0f;
+    for (int ty = y0; ty <= y1; ty += kTileH) {
+      for (int tx = x0; tx <= x1; tx += kTileW) {
+        const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
+        std::uint16_t lo_code = 0, hi_code = 0;
+        depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+        if (lo_code > hi_code) continue;
+        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
+                               value_for_code(hi_code, cell.a, cell.b));
+        if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
+            static_cast<float>(lo_code) * code_to_m_ <= cell.b)
+          bound = 1.0f;
+        if (bound <= best) continue;
+        const bool reaches_sign = bound >= -1.0f && to_fixed(bound) >= cell.enough_fixed;
+        if (reaches_sign != (pass == 0)) {
+          skipped = skipped || pass == 0;
+          continue;
+        }
+        if (pass == 1 && crossed && to_fixed(bound) < 0) {
+          // A ray is known to cross the cell and this tile can only add a free
+          // value: its bound keeps the sign and stays above the reference's.
+          best = std::max(best, bound);
+          continue;
+        }
+        for (int v = ty; v <= ey; ++v) {
+          const Eigen::Vector3f w =
+              cell.w00 + static_cast<float>(tx) * cell.du + static_cast<float>(v) * cell.dv;
+          const RowRays row{depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
+                            ex - tx + 1,
+                            {w.x(), w.y(), w.z()},
+                            {cell.du.x(), cell.du.y(), cell.du.z()}};
+          clipped += row.count;
+          best =
+              std::max(best, row_best(row, lo, hi, d_min_, d_max_, code_to_m_, resolution_factor_));
+          if (pass == 0 && best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
+            *rays += clipped;
+            return best;
+          }
+        }
       }
     }
+    if (!skipped) break;
   }
   *rays += clipped;
   return best;

@@ -50,14 +50,17 @@ class ProjectiveIntegrator {
 
  private:
   // The largest m̂ over the pixels in [x0, x1] x [y0, y1] for a cell whose
-  // δ-interval is [a, b]; below -1 when no ray reaches the cell.
+  // δ-interval is [a, b]; below -1 when no ray reaches the cell. One range query,
+  // and a scan of the codes when they lie on both sides of [a, b].
   float best_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float a,
                    float b) const;
   float value_for_code(std::uint16_t code, float a, float b) const;
   // The reference rule over the pixels of the rectangle: each pixel's ray is
   // clipped to the cell (world box [lo, lo + s]) and m̂ maximised over that part.
   // `best` is a value known to be reached (a lower bound): parts of the footprint
-  // that cannot beat it are skipped. Adds the rays it clipped to *rays.
+  // that cannot beat it are skipped. Stops at the first ray that reaches
+  // cell.enough_fixed; when none does, the result keeps the reference's sign and
+  // is never below its value. Adds the rays it clipped to *rays.
   struct CellRays;
   float exact_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                     const CellRays& cell, float best, std::int64_t* rays) const;

@@ -3,7 +3,12 @@
 #include <algorithm>
 #include <bit>
 
+#include "simd_u16.hpp"
+
 namespace zonemap {
+using simd::load_u16;
+using simd::min_u16;
+using simd::U16x8;
 
 DepthRangeTable::DepthRangeTable(int width, int height) : width_(width), height_(height) {
   levels_ = 1;
@@ -53,14 +58,20 @@ void DepthRangeTable::square_pass(const std::uint16_t* in, std::uint16_t* out, i
     const std::uint16_t* b =
         in + static_cast<std::size_t>(std::min(y + half, height_ - 1)) * row_values;
     std::uint16_t* o = out + static_cast<std::size_t>(y) * row_values;
-    for (std::size_t i = 0; i < inner; ++i) {
+    std::size_t i = 0;
+    for (; i + 8 <= inner; i += 8) {
+      const U16x8 m = min_u16(min_u16(load_u16(a + i), load_u16(a + i + shift)),
+                              min_u16(load_u16(b + i), load_u16(b + i + shift)));
+      std::memcpy(o + i, &m, sizeof m);  // o may be a: every read above is at or after i
+    }
+    for (; i < inner; ++i) {
       o[i] = std::min(std::min(a[i], a[i + shift]), std::min(b[i], b[i + shift]));
     }
     // The last columns: the square is cut at the image's right edge.
     const std::size_t last = row_values - 2;
-    for (std::size_t i = inner; i < row_values; ++i) {
-      const std::size_t j = std::min(i + shift, last + (i & 1));
-      o[i] = std::min(std::min(a[i], a[j]), std::min(b[i], b[j]));
+    for (std::size_t k = inner; k < row_values; ++k) {
+      const std::size_t j = std::min(k + shift, last + (k & 1));
+      o[k] = std::min(std::min(a[k], a[j]), std::min(b[k], b[j]));
     }
   }
 }

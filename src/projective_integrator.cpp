@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "simd_u16.hpp"
 #include "zonemap/sensor_model.hpp"
 
 namespace zonemap {
@@ -118,34 +119,31 @@ struct CodeSides {
 
 CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int x1, int y1,
                      std::uint16_t lo, std::uint16_t hi) {
-  using Codes = std::uint16_t __attribute__((vector_size(16)));
-  const auto splat16 = [](std::uint16_t v) { return Codes{v, v, v, v, v, v, v, v}; };
-  const Codes lo_v = splat16(lo), hi_v = splat16(hi), missing_v = splat16(0xFFFF);
-  const Codes one = splat16(1), zero = splat16(0);
+  using simd::U16x8;
+  const U16x8 lo_v = simd::splat_u16(lo), hi_v = simd::splat_u16(hi);
+  const U16x8 missing_v = simd::splat_u16(DepthRangeTable::kMissing);
+  const U16x8 one = simd::splat_u16(1);
   // Per lane: lo - c for codes below (else 0) and c - hi for codes above (else 0),
-  // minus one so that "none" is 0xFFFF; minima over all lanes.
-  Codes below_gap = missing_v, above_gap = missing_v, inside = zero;
-  const auto add = [&](Codes c) {
-    const Codes is_below = reinterpret_cast<Codes>(c < lo_v);
-    const Codes is_above = reinterpret_cast<Codes>(c > hi_v);
-    const Codes is_missing = reinterpret_cast<Codes>(c == missing_v);
-    const Codes b = ((lo_v - c) & is_below) - one;
-    const Codes u = (((c - hi_v) & is_above) - one) | is_missing;
-    below_gap = b < below_gap ? b : below_gap;
-    above_gap = u < above_gap ? u : above_gap;
-    inside |= ~(is_below | is_above);  // missing codes are above
+  // minus one so that "none" is 0xFFFF; minima over all lanes. A code is inside
+  // when both are 0 (missing codes are above, then masked off).
+  U16x8 below_gap = missing_v, above_gap = missing_v, inside = U16x8{};
+  const auto add = [&](U16x8 c) {
+    const U16x8 below = simd::saturating_sub(lo_v, c);
+    const U16x8 above = simd::saturating_sub(c, hi_v);
+    const auto is_missing = reinterpret_cast<U16x8>(c == missing_v);
+    below_gap = simd::min_u16(below_gap, below - one);
+    above_gap = simd::min_u16(above_gap, (above - one) | is_missing);
+    inside |= reinterpret_cast<U16x8>((below | above) == U16x8{});
   };
-  const Codes lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  const U16x8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
   if (x1 - x0 + 1 < 8) {
     // Narrow: one load inside the image, lanes outside the rectangle made missing.
     const int start = std::min(x0, width - 8);
-    const auto first = static_cast<std::uint16_t>(x0 - start);
-    const auto last = static_cast<std::uint16_t>(x1 - start);
-    const Codes outside = reinterpret_cast<Codes>((lane < splat16(first)) | (lane > splat16(last)));
+    const U16x8 outside =
+        reinterpret_cast<U16x8>((lane < simd::splat_u16(static_cast<std::uint16_t>(x0 - start))) |
+                                (lane > simd::splat_u16(static_cast<std::uint16_t>(x1 - start))));
     for (int y = y0; y <= y1; ++y) {
-      Codes c;
-      std::memcpy(&c, codes + static_cast<std::size_t>(y) * width + start, sizeof c);
-      add(c | outside);
+      add(simd::load_u16(codes + static_cast<std::size_t>(y) * width + start) | outside);
     }
   } else {
     // Loads of eight, the last one ending at x1 (overlaps change no minimum).
@@ -158,14 +156,10 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
       const std::uint16_t* row = codes + static_cast<std::size_t>(y) * width;
       for (int x = x0;; x += 8) {
         const int start = std::min(x, x1 - 7);
-        Codes c;
-        std::memcpy(&c, row + start, sizeof c);
-        add(c);
+        add(simd::load_u16(row + start));
         if (start + 8 > x1) break;
       }
-      std::uint64_t found[2];
-      std::memcpy(found, &inside, sizeof found);
-      if ((found[0] | found[1]) != 0) {
+      if (simd::any_u16(inside)) {
         CodeSides sides;
         sides.inside = true;
         return sides;
@@ -228,11 +222,10 @@ float row_best(const RowRays& row, const float lo[3], const float hi[3], float d
 constexpr int kScanArea = 128;
 
 float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
-                                       int y1, float a, float b) const {
+                                       int y1, std::uint16_t lo, std::uint16_t hi, float a,
+                                       float b) const {
   // m̂ is unimodal in d with its plateau for d in [a, b]: over a set of depths
   // entirely below a the largest one decides, entirely above b the smallest.
-  std::uint16_t lo = 0, hi = 0;
-  depths.range(x0, y0, x1, y1, &lo, &hi);
   if (lo > hi) return kNoRay;  // no usable pixel
   const float a_code = a / code_to_m_;
   const float b_code = b / code_to_m_;
@@ -465,6 +458,9 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   // The ray of the pixel nearest to a cell's projected centre passes within
   // 0.75 pixel of the centre: it crosses the cell while the cell spans > 1.5 px.
   const double quick_max_depth = s * std::min(fx, fy) / 1.5;
+  const auto fx_f = static_cast<float>(fx), fy_f = static_cast<float>(fy);
+  const auto cx_f = static_cast<float>(cx), cy_f = static_cast<float>(cy);
+  const auto w_last = static_cast<float>(w - 1), h_last = static_cast<float>(h - 1);
 
   ProjectiveStats stats;
   int touched_lo[3] = {dims[0], dims[1], dims[2]};
@@ -510,53 +506,28 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         }
         // The bulk of the frustum is free space or hidden behind surfaces. When
         // every pixel ray near the cell is free across it (known for its whole
-        // block, or from the depth range over a box that holds the cell's
-        // footprint), the ray of the centre pixel crossing it settles the cell:
-        // free. When every such ray ends before the cell, nothing reaches it.
-        if (zc - half.z() >= d_min_ && zc <= quick_max_depth) {
+        // block, or from the depth range over the cell's footprint), the ray of
+        // the centre pixel crossing it settles the cell: free. When every such
+        // ray ends before the cell, nothing reaches it.
+        const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
+        bool centre_ray = false;
+        if (quick) {
           const double inv_z = 1.0 / zc;
           const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-          const bool centre_ray = uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
-                                  depths.codes()[static_cast<std::size_t>(std::lround(vc)) * w +
-                                                 static_cast<std::size_t>(std::lround(uc))] !=
-                                      DepthRangeTable::kMissing;
+          centre_ray =
+              uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
+              depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
+                             static_cast<std::size_t>(uc + 0.5)] != DepthRangeTable::kMissing;
           if (centre_ray && block == kBlockFree) {
             ++stats.cells_evaluated;
             ++stats.cells_block_free;
             grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
             continue;
           }
-          // The cell's camera-frame box projects into this rectangle.
-          const double near = zc - half.z(), far = zc + half.z();
-          const double inv_near = 1.0 / near, inv_far = 1.0 / far;
-          const double xl = pc.x() - half.x(), xh = pc.x() + half.x();
-          const double yl = pc.y() - half.y(), yh = pc.y() + half.y();
-          const int bx0 = std::max(
-              0, static_cast<int>(std::ceil(fx * std::min(xl * inv_near, xl * inv_far) + cx)));
-          const int bx1 = std::min(
-              w - 1, static_cast<int>(std::floor(fx * std::max(xh * inv_near, xh * inv_far) + cx)));
-          const int by0 = std::max(
-              0, static_cast<int>(std::ceil(fy * std::min(yl * inv_near, yl * inv_far) + cy)));
-          const int by1 = std::min(
-              h - 1, static_cast<int>(std::floor(fy * std::max(yh * inv_near, yh * inv_far) + cy)));
-          if (bx0 > bx1 || by0 > by1) continue;  // no pixel sees the cell
-          std::uint16_t lo_code = 0, hi_code = 0;
-          depths.range(bx0, by0, bx1, by1, &lo_code, &hi_code);
-          if (lo_code > hi_code) continue;  // every pixel near it missing
-          if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(near)) {
-            ++stats.cells_hidden;
-            continue;
-          }
-          if (centre_ray && free_across(lo_code, hi_code, static_cast<float>(far))) {
-            ++stats.cells_evaluated;
-            ++stats.cells_box_free;
-            grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
-            continue;
-          }
         }
         // The image box of the cube's eight projected corners: the pixels whose
         // rays can cross the cell (four corners at a time, in float).
-        double u0 = -1e300, u1 = 1e300, v0 = -1e300, v1 = 1e300;
+        float u0 = -1e30f, u1 = 1e30f, v0 = -1e30f, v1 = 1e30f;
         {
           const auto px = static_cast<float>(pc.x()), py = static_cast<float>(pc.y()),
                      pz = static_cast<float>(pc.z());
@@ -569,17 +540,31 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
                         v_b = (splat(py) + corner_y[1]) / qz1;
             const Lanes u_lo = lanes_min(u_a, u_b), u_hi = lanes_max(u_a, u_b);
             const Lanes v_lo = lanes_min(v_a, v_b), v_hi = lanes_max(v_a, v_b);
-            u0 = fx * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx;
-            u1 = fx * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx;
-            v0 = fy * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy;
-            v1 = fy * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy;
+            u0 = fx_f * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx_f;
+            u1 = fx_f * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx_f;
+            v0 = fy_f * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy_f;
+            v1 = fy_f * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy_f;
           }
         }
-        const int px0 = std::max(0, static_cast<int>(std::ceil(u0)));
-        const int px1 = std::min(w - 1, static_cast<int>(std::floor(u1)));
-        const int py0 = std::max(0, static_cast<int>(std::ceil(v0)));
-        const int py1 = std::min(h - 1, static_cast<int>(std::floor(v1)));
-        if (px0 > px1 || py0 > py1) continue;
+        // Clamped into the image first, so that the conversions stay in range.
+        const int px0 = static_cast<int>(std::ceil(std::max(u0, 0.0f)));
+        const int px1 = static_cast<int>(std::floor(std::min(u1, w_last)));
+        const int py0 = static_cast<int>(std::ceil(std::max(v0, 0.0f)));
+        const int py1 = static_cast<int>(std::floor(std::min(v1, h_last)));
+        if (px0 > px1 || py0 > py1) continue;  // no pixel sees the cell
+        std::uint16_t lo_code = 0, hi_code = 0;
+        depths.range(px0, py0, px1, py1, &lo_code, &hi_code);
+        if (lo_code > hi_code) continue;  // every pixel near it missing
+        if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(a)) {
+          ++stats.cells_hidden;  // every ray ends before the cell
+          continue;
+        }
+        if (centre_ray && free_across(lo_code, hi_code, static_cast<float>(b))) {
+          ++stats.cells_evaluated;
+          ++stats.cells_box_free;
+          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+          continue;
+        }
         ++stats.cells_evaluated;
         cell.a = static_cast<float>(a);
         cell.b = static_cast<float>(b);
@@ -587,7 +572,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         // free). The cell gets U whenever the reference's value has U's sign: a
         // value never below the reference's (near a surface, a little more
         // occupied or less free: the safe side), at the sign the reference gives.
-        float value = best_value(depths, px0, py0, px1, py1, cell.a, cell.b);
+        float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
         const int upper_fixed = to_fixed(value);
         if (value > -1.0f && upper_fixed >= 0) {
           // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
@@ -602,10 +587,11 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           // Probes: the ray through the centre, then one through a point near the
           // corner farthest from the camera (it runs deepest through the cell).
           const auto probe = [&](const Eigen::Vector3d& point) {
-            const int u = std::clamp(static_cast<int>(std::lround(fx * point.x() / point.z() + cx)),
-                                     px0, px1);
-            const int v = std::clamp(static_cast<int>(std::lround(fy * point.y() / point.z() + cy)),
-                                     py0, py1);
+            // Rounded to the nearest pixel of the footprint (clamped first: in range).
+            const int u = static_cast<int>(
+                std::clamp(fx * point.x() / point.z() + cx, double(px0), double(px1)) + 0.5);
+            const int v = static_cast<int>(
+                std::clamp(fy * point.y() / point.z() + cy, double(py0), double(py1)) + 0.5);
             const std::uint16_t code = depths.codes()[static_cast<std::size_t>(v) * w + u];
             float t0 = 0.0f, t1 = 0.0f;
             if (code == DepthRangeTable::kMissing ||

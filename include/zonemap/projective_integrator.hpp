@@ -50,10 +50,11 @@ class ProjectiveIntegrator {
 
  private:
   // The largest m̂ over the pixels in [x0, x1] x [y0, y1] for a cell whose
-  // δ-interval is [a, b]; below -1 when no ray reaches the cell. One range query,
-  // and a scan of the codes when they lie on both sides of [a, b].
-  float best_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float a,
-                   float b) const;
+  // δ-interval is [a, b], given the rectangle's code range [lo, hi]; below -1
+  // when no ray reaches the cell. A scan of the codes when they lie on both
+  // sides of [a, b].
+  float best_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, std::uint16_t lo,
+                   std::uint16_t hi, float a, float b) const;
   float value_for_code(std::uint16_t code, float a, float b) const;
   // The reference rule over the pixels of the rectangle: each pixel's ray is
   // clipped to the cell (world box [lo, lo + s]) and m̂ maximised over that part.

@@ -6,6 +6,54 @@
 
 namespace zonemap {
 
+namespace {
+
+struct RowCounts {
+  std::uint16_t missing = 0, near = 0, far = 0;
+};
+
+// Raw depths to range-table codes: missing (0) and too near (raw <= near_last)
+// to kMissing, beyond d_max (raw > far_last) to kFar. 16-bit arithmetic without
+// branches, so that the loop runs eight pixels at a time.
+RowCounts convert_row(const std::uint16_t* __restrict raw_row, std::uint16_t* __restrict out,
+                      int width, std::uint16_t near_last, std::uint16_t far_last) {
+  for (int u = 0; u < width; ++u) {
+    const std::uint16_t raw = raw_row[u];
+    // raw - 1 wraps a missing 0 to 0xFFFF: never near.
+    const bool is_ignored = static_cast<std::uint16_t>(raw - 1) >= 0xFFFF ||
+                            static_cast<std::uint16_t>(raw - 1) < near_last;
+    const std::uint16_t code =
+        raw < DepthRangeTable::kMaxDepthCode ? raw : DepthRangeTable::kMaxDepthCode;
+    out[u] = is_ignored ? DepthRangeTable::kMissing : raw > far_last ? DepthRangeTable::kFar : code;
+  }
+  // The counts in separate passes: each is a plain vectorisable count.
+  RowCounts counts;
+  int missing = 0, far = 0, ignored = 0;
+  for (int u = 0; u < width; ++u) missing += raw_row[u] == 0 ? 1 : 0;
+  for (int u = 0; u < width; ++u) far += out[u] == DepthRangeTable::kFar ? 1 : 0;
+  for (int u = 0; u < width; ++u) ignored += out[u] == DepthRangeTable::kMissing ? 1 : 0;
+  counts.missing = static_cast<std::uint16_t>(missing);
+  counts.near = static_cast<std::uint16_t>(ignored - missing);
+  counts.far = static_cast<std::uint16_t>(far);
+  return counts;
+}
+
+// Missing pixels flagged as sky become kFar (free up to d_max); returns how many.
+std::uint16_t mark_sky(const std::uint16_t* __restrict raw_row, const std::uint8_t* __restrict sky,
+                       std::uint16_t* __restrict out, int width) {
+  static_assert(DepthRangeTable::kFar == DepthRangeTable::kMissing - 1);
+  int count = 0;
+  for (int u = 0; u < width; ++u) {
+    // A missing pixel's code is kMissing: minus one makes it kFar.
+    const std::uint16_t is_sky = static_cast<std::uint16_t>((raw_row[u] == 0 ? 1 : 0) & sky[u]);
+    count += is_sky;
+    out[u] = static_cast<std::uint16_t>(out[u] - is_sky);
+  }
+  return static_cast<std::uint16_t>(count);
+}
+
+}  // namespace
+
 bool is_valid_pose(const Eigen::Isometry3d& pose) {
   if (!pose.matrix().allFinite()) return false;
   const Eigen::Matrix3d r = pose.linear();
@@ -24,7 +72,8 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
       occupied_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
-          static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))) {}
+          static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))),
+      sky_flags_(new std::uint8_t[static_cast<std::size_t>(std::max(camera.width, 1))]()) {}
 
 CellIndex Mapper::cell_of(const Eigen::Vector3d& point) const {
   const Eigen::Vector3d c = point / config_.cell_size_m;
@@ -37,22 +86,46 @@ Eigen::Vector3d Mapper::cell_center(const CellIndex& cell) const {
   return Eigen::Vector3d(cell.x + 0.5, cell.y + 0.5, cell.z + 0.5) * config_.cell_size_m;
 }
 
-bool Mapper::is_sky(const std::uint8_t* left, int u, int v) const {
+void Mapper::sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const {
   const int w = camera_.width;
   const int h = camera_.height;
-  const int center = left[static_cast<std::size_t>(v) * w + u];
-  if (center < config_.sky.min_intensity) return false;
-  // Low texture: every 8-neighbour within max_gradient of the centre.
-  for (int dv = -1; dv <= 1; ++dv) {
-    const int y = std::clamp(v + dv, 0, h - 1);
-    for (int du = -1; du <= 1; ++du) {
-      const int x = std::clamp(u + du, 0, w - 1);
-      if (std::abs(left[static_cast<std::size_t>(y) * w + x] - center) > config_.sky.max_gradient) {
-        return false;
+  const std::uint8_t* rows[3] = {left + static_cast<std::size_t>(std::max(v - 1, 0)) * w,
+                                 left + static_cast<std::size_t>(v) * w,
+                                 left + static_cast<std::size_t>(std::min(v + 1, h - 1)) * w};
+  const auto min_intensity = static_cast<std::uint8_t>(config_.sky.min_intensity);
+  const auto max_gradient = static_cast<std::uint8_t>(config_.sky.max_gradient);
+  // Edge columns repeat their neighbour (the image is clamped at its border).
+  const auto flag = [&](int u, int left_u, int right_u) {
+    const std::uint8_t centre = rows[1][u];
+    std::uint8_t ok = centre >= min_intensity ? 1 : 0;
+    for (const std::uint8_t* row : rows) {
+      for (const int x : {left_u, u, right_u}) {
+        const std::uint8_t n = row[x];
+        const auto diff = static_cast<std::uint8_t>(n > centre ? n - centre : centre - n);
+        ok &= diff <= max_gradient ? 1 : 0;
       }
     }
+    return ok;
+  };
+  if (w < 3) {
+    for (int u = 0; u < w; ++u) flags[u] = flag(u, std::max(u - 1, 0), std::min(u + 1, w - 1));
+    return;
   }
-  return true;
+  flags[0] = flag(0, 0, 1);
+  flags[w - 1] = flag(w - 1, w - 2, w - 1);
+  // The interior without clamping: plain byte arithmetic the compiler vectorises.
+  for (int u = 1; u < w - 1; ++u) {
+    const std::uint8_t centre = rows[1][u];
+    std::uint8_t ok = centre >= min_intensity ? 1 : 0;
+    for (int r = 0; r < 3; ++r) {
+      for (int du = -1; du <= 1; ++du) {
+        const std::uint8_t n = rows[r][u + du];
+        const auto diff = static_cast<std::uint8_t>(n > centre ? n - centre : centre - n);
+        ok &= diff <= max_gradient ? 1 : 0;
+      }
+    }
+    flags[u] = ok;
+  }
 }
 
 FrameReport Mapper::integrate(const DepthFrameView& frame,
@@ -98,35 +171,47 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     // Level 0 of the range table: each pixel's depth code, kFar for free-only
     // rays, or missing. pixel_step is a reference-path option: every pixel is used.
     std::uint16_t* base = depths_.base();
+    // d_min <= d <= d_max as raw codes: the first and last raw values whose float
+    // depth passes (the same test as the reference path's, without a multiply).
+    const auto first_raw = [&](float limit, bool inclusive_above) {
+      std::uint32_t r = static_cast<std::uint32_t>(std::max(0.0f, limit / depth_to_m));
+      r = r > 2 ? r - 2 : 0;
+      while (r <= 0xFFFF && (inclusive_above ? static_cast<float>(r) * depth_to_m < limit
+                                             : static_cast<float>(r) * depth_to_m <= limit)) {
+        ++r;
+      }
+      return r;
+    };
+    const std::uint32_t raw_near = first_raw(d_min, true);  // raw < raw_near: too near
+    const std::uint32_t raw_far = first_raw(d_max, false);  // raw >= raw_far: beyond d_max
+    // As the last raw values that are too near / not too far, in 16 bits (a
+    // depth limit past the code range never applies).
+    const auto near_last = static_cast<std::uint16_t>(raw_near > 0 ? raw_near - 1 : 0);
+    const auto far_last = static_cast<std::uint16_t>(std::min<std::uint32_t>(raw_far - 1, 0xFFFF));
+    std::int32_t hit = 0, near = 0, far = 0, missing = 0;
     for (int v = 0; v < frame.height; ++v) {
       const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
       std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
-      for (int u = 0; u < frame.width; ++u) {
-        const std::uint16_t raw = depth_row[u];
-        std::uint16_t value = DepthRangeTable::kMissing;
-        if (raw == 0) {
-          if (sky_filter && is_sky(frame.left, u, v)) {
-            ++report.pixels_sky;
-            ++report.rays_free;
-            value = DepthRangeTable::kFar;
-          } else {
-            ++report.pixels_missing;
-          }
-        } else {
-          const float d = static_cast<float>(raw) * depth_to_m;
-          if (d < d_min) {
-            ++report.pixels_too_near;
-          } else if (d > d_max) {
-            ++report.rays_free;
-            value = DepthRangeTable::kFar;
-          } else {
-            ++report.rays_hit;
-            value = std::min(raw, DepthRangeTable::kMaxDepthCode);
-          }
-        }
-        out[u] = value;
+      const RowCounts counts = convert_row(depth_row, out, frame.width, near_last, far_last);
+      const std::uint16_t row_missing = counts.missing, row_near = counts.near,
+                          row_far = counts.far;
+      near += row_near;
+      far += row_far;
+      hit += frame.width - row_missing - row_near - row_far;
+      missing += row_missing;
+      // Missing pixels of a bright, textureless patch are sky: free up to d_max.
+      if (row_missing > 0 && sky_filter) {
+        sky_row(frame.left, v, sky_flags_.get());
+        const std::uint16_t row_sky = mark_sky(depth_row, sky_flags_.get(), out, frame.width);
+        report.pixels_sky += row_sky;
+        missing -= row_sky;
+        far += row_sky;
       }
     }
+    report.rays_hit += hit;
+    report.rays_free += far;
+    report.pixels_too_near += near;
+    report.pixels_missing += missing;
     depths_.build();
     const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_);
     report.cells_visited = drawn.cells_evaluated;
@@ -142,12 +227,17 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
 
   for (int v = 0; v < frame.height; v += step) {
     const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
+    bool sky_known = false;
     for (int u = 0; u < frame.width; u += step) {
       RayProfile ray;
       ray.delta_begin = d_min;
       const std::uint16_t raw = depth_row[u];
       if (raw == 0) {
-        if (sky_filter && is_sky(frame.left, u, v)) {
+        if (sky_filter && !sky_known) {
+          sky_row(frame.left, v, sky_flags_.get());
+          sky_known = true;
+        }
+        if (sky_filter && sky_flags_[static_cast<std::size_t>(u)] != 0) {
           ++report.pixels_sky;
           ray.free_only = true;
         } else {

@@ -219,8 +219,6 @@ float row_best(const RowRays& row, const float lo[3], const float hi[3], float d
 
 }  // namespace
 
-constexpr int kScanArea = 128;
-
 float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                        int y1, std::uint16_t lo, std::uint16_t hi, float a,
                                        float b) const {
@@ -264,6 +262,20 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   constexpr int kTileW = 8, kTileH = 4;
   const float lo[3] = {cell.lo.x(), cell.lo.y(), cell.lo.z()};
   const float hi[3] = {cell.hi.x(), cell.hi.y(), cell.hi.z()};
+  // The depths (codes) whose rays can reach the sign sought in the cell: a
+  // depth below a reaches it when d + Δd(d) (scaled by the rounding margin)
+  // passes a, a depth above b when d - Δd(d) stays below b (roots of the
+  // quadratics in d; widened by a code each way: only a filter).
+  const float margin = cell.enough_fixed > 0 ? 127.0f / 128.0f : 129.0f / 128.0f;
+  const float k = resolution_factor_ * margin;
+  const float reach_lo = (std::sqrt(1.0f + 4.0f * k * cell.a) - 1.0f) / (2.0f * k);
+  const float disc = 1.0f - 4.0f * k * cell.b;
+  const float reach_hi = disc > 0.0f ? (1.0f - std::sqrt(disc)) / (2.0f * k) : 1e30f;
+  const float top = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  const auto sign_lo =
+      static_cast<std::uint16_t>(std::clamp(std::floor(reach_lo / code_to_m_) - 1.0f, 0.0f, top));
+  const auto sign_hi =
+      static_cast<std::uint16_t>(std::clamp(std::ceil(reach_hi / code_to_m_) + 1.0f, 0.0f, top));
   std::int64_t clipped = 0;
   bool skipped = false;
   bool crossed = false;  // (second pass) some ray is known to cross the cell
@@ -275,16 +287,20 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code) continue;
-        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
-                               value_for_code(hi_code, cell.a, cell.b));
-        if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
-            static_cast<float>(lo_code) * code_to_m_ <= cell.b)
-          bound = 1.0f;
-        if (bound <= best) continue;
-        const bool reaches_sign = bound >= -1.0f && to_fixed(bound) >= cell.enough_fixed;
-        if (reaches_sign != (pass == 0)) {
+        // Pass 1 takes the tiles with a depth in [sign_lo, sign_hi], pass 2 the rest.
+        const bool can_reach_sign = hi_code >= sign_lo && lo_code <= sign_hi;
+        if (can_reach_sign != (pass == 0)) {
           skipped = skipped || pass == 0;
           continue;
+        }
+        float bound = 1.0f;
+        if (pass == 1) {
+          bound = std::max(value_for_code(lo_code, cell.a, cell.b),
+                           value_for_code(hi_code, cell.a, cell.b));
+          if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
+              static_cast<float>(lo_code) * code_to_m_ <= cell.b)
+            bound = 1.0f;
+          if (bound <= best) continue;
         }
         if (pass == 1 && crossed && to_fixed(bound) < 0) {
           // A ray is known to cross the cell and this tile can only add a free

@@ -400,7 +400,10 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   EXPECT_GT(recording.last_health.end_to_end_ms_p50, 0.0);
   EXPECT_GT(recording.last_health.static_memory_bytes, 0);
   EXPECT_GT(recording.last_health.named, 5);
-  EXPECT_EQ(mavlink.sent(), s.outputs_published);
+  // Every update is sent or held back by the rate limit (1 kHz: a fast mapper
+  // publishes sooner than that now and then), none is lost.
+  EXPECT_GT(mavlink.sent(), 0);
+  EXPECT_EQ(mavlink.sent() + mavlink.rate_limited(), s.outputs_published);
   EXPECT_EQ(mavlink.failed(), 0);
   close(receiver);
   EXPECT_EQ(s.mapping_thread_allocations, 0);

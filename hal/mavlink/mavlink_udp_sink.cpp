@@ -40,7 +40,11 @@ bool MavlinkUdpSink::open(std::string* error) {
 }
 
 void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
-  if (fd_ < 0 || now_s - last_s_ < 1.0 / config_.rate_hz) return;
+  if (fd_ < 0) return;
+  if (now_s - last_s_ < 1.0 / config_.rate_hz) {
+    ++rate_limited_;
+    return;
+  }
   last_s_ = now_s;
   const ObstacleDistances d = obstacle_distances(update.boxes, update.count, update.world_T_body,
                                                  update.world_z_up, config_.sectors);
@@ -59,6 +63,7 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
 void MavlinkUdpSink::report(hal::HealthSnapshot* h) const {
   h->add("mavlink_out_sent", sent_);
   h->add("mavlink_out_failed", failed_);
+  h->add("mavlink_out_rate_limited", rate_limited_);
 }
 
 }  // namespace zonemap::mavlink

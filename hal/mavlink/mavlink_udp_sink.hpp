@@ -30,6 +30,8 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   void report(hal::HealthSnapshot* health) const override;
   std::int64_t sent() const { return sent_; }
   std::int64_t failed() const { return failed_; }
+  // Updates that came sooner than 1 / rate_hz after the last message sent.
+  std::int64_t rate_limited() const { return rate_limited_; }
 
  private:
   MavlinkUdpConfig config_;
@@ -37,7 +39,7 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   unsigned char address_[16] = {};  // sockaddr_in
   std::uint8_t sequence_ = 0;
   double last_s_ = -1e300;
-  std::int64_t sent_ = 0, failed_ = 0;
+  std::int64_t sent_ = 0, failed_ = 0, rate_limited_ = 0;
 };
 
 }  // namespace zonemap::mavlink

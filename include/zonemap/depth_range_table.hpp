@@ -23,7 +23,8 @@ class DepthRangeTable {
   static constexpr std::uint16_t kFar = 0xFFFE;      // free up to d_max (sky, > d_max)
   static constexpr std::uint16_t kMissing = 0xFFFF;  // no usable ray
   static constexpr std::uint16_t kMaxDepthCode = 0xFFFD;
-  static constexpr int kMaxLevels = 7;  // squares up to 64 x 64 pixels
+  static constexpr int kMaxLevels =
+      6;  // squares up to 32 x 32 pixels (larger rectangles: a few more)
 
   DepthRangeTable(int width, int height);
 

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 
 #include <Eigen/Geometry>
 
@@ -68,7 +69,8 @@ class Mapper {
   const CameraModel& camera() const { return camera_; }
   // The projective path's depth range table and block flags.
   std::size_t depth_table_bytes() const {
-    return depths_.reserved_bytes() + projective_.reserved_bytes();
+    return depths_.reserved_bytes() + projective_.reserved_bytes() +
+           static_cast<std::size_t>(camera_.width);
   }
   std::size_t reserved_bytes() const {
     return zones_.reserved_bytes() + local_.reserved_bytes() + depth_table_bytes();
@@ -78,7 +80,10 @@ class Mapper {
   FusedCell free_threshold() const { return free_threshold_; }
 
  private:
-  bool is_sky(const std::uint8_t* left, int u, int v) const;
+  // flags[u] = 1 where pixel (u, v) of the left image may be sky: bright, and
+  // every 8-neighbour within max_gradient of it (low texture). One row at a time,
+  // so that the comparisons run sixteen pixels at once.
+  void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
 
   MapConfig config_;
   CameraModel camera_;
@@ -88,6 +93,7 @@ class Mapper {
   ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
+  std::unique_ptr<std::uint8_t[]> sky_flags_;  // one row of sky_row
 };
 
 }  // namespace zonemap

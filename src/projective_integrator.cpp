@@ -17,8 +17,69 @@ constexpr std::uint8_t kBlockFree = 1;   // every ray near it is free across it
 constexpr std::uint8_t kBlockUnseen =
     2;  // no ray reaches it (or no pixel sees it)  // below every m̂: no ray reaches the cell
 
+// Pixel rays relative to the camera centre, in world axes: the ray of pixel
+// (u, v) is δ ↦ δ (w00 + u du + v dv) (δ: depth along the optical axis).
+struct RayBasis {
+  float w00[3], du[3], dv[3];
+};
+
 LocalCell quantize(float units) {
   return static_cast<LocalCell>(std::clamp(to_fixed(units), -kCellScale, kCellScale));
+}
+
+// The camera's frustum (image borders, d_min, d_max) as six world-frame
+// half-spaces n . p >= c, widened so that a cube of side `side` whose centre is
+// outside cannot reach into it.
+struct Frustum {
+  Eigen::Vector3d normals[6];
+  double offsets[6];
+
+  // The indices i of the centres (base_x + i * step, wy, wz), 0 <= i < count,
+  // inside every half-space: [*lo, *hi]; false when there are none.
+  bool row(double wy, double wz, double base_x, double step, int count, int* lo, int* hi) const {
+    double x_lo = 0.0, x_hi = count - 1;
+    for (int i = 0; i < 6 && x_lo <= x_hi; ++i) {
+      const Eigen::Vector3d& n = normals[i];
+      const double rest = n.y() * wy + n.z() * wz - offsets[i];  // n.x * X + rest >= 0
+      if (std::fabs(n.x()) < 1e-12) {
+        if (rest < 0.0) x_hi = -1.0;
+        continue;
+      }
+      const double bound = (-rest / n.x() - base_x) / step;  // in indices
+      if (n.x() > 0.0) {
+        x_lo = std::max(x_lo, std::ceil(bound));
+      } else {
+        x_hi = std::min(x_hi, std::floor(bound));
+      }
+    }
+    if (x_lo > x_hi) return false;
+    *lo = static_cast<int>(x_lo);
+    *hi = static_cast<int>(x_hi);
+    return true;
+  }
+};
+
+Frustum make_frustum(const Eigen::Isometry3d& world_T_camera, const CameraModel& camera,
+                     double d_min, double d_max, double side) {
+  const Eigen::Matrix3d r = world_T_camera.linear();
+  const Eigen::Vector3d t = world_T_camera.translation();
+  // Half extent of the cube along the optical axis, and its half diagonal.
+  const double half_z = 0.5 * side * r.col(2).cwiseAbs().sum();
+  const double margin = 0.5 * side * std::sqrt(3.0);
+  const double kl = (0.0 - camera.cx) / camera.fx, kr = (camera.width - 1 - camera.cx) / camera.fx;
+  const double kt = (0.0 - camera.cy) / camera.fy, kb = (camera.height - 1 - camera.cy) / camera.fy;
+  Frustum f{{{1, 0, -kl}, {-1, 0, kr}, {0, 1, -kt}, {0, -1, kb}, {0, 0, 1}, {0, 0, -1}},
+            {0, 0, 0, 0, d_min - half_z, -(d_max + half_z)}};
+  for (int i = 0; i < 6; ++i) {
+    const double len = f.normals[i].norm();
+    f.normals[i] /= len;
+    f.offsets[i] /= len;
+    f.offsets[i] -= margin;
+    // To the world frame: n_c . R^T (p - t) >= c  <=>  (R n_c) . p >= c + (R n_c) . t
+    f.normals[i] = r * f.normals[i];
+    f.offsets[i] += f.normals[i].dot(t);
+  }
+  return f;
 }
 
 }  // namespace
@@ -26,8 +87,8 @@ LocalCell quantize(float units) {
 // The pixel rays of one cell, all relative to the camera centre: the ray of pixel
 // (u, v) is δ ↦ δ (w00 + u du + v dv) in world axes (δ: depth along the optical axis).
 struct ProjectiveIntegrator::CellRays {
-  Eigen::Vector3f lo, hi;  // the cell's world box minus the camera centre
-  Eigen::Vector3f w00, du, dv;
+  float lo[3] = {}, hi[3] = {};  // the cell's world box minus the camera centre
+  RayBasis basis{};
   float a = 0.0f, b = 0.0f;  // the cell's δ-support (camera-frame z range, from d_min)
   int enough_fixed = 0;      // the ray-by-ray search may stop at this cell value
 };
@@ -59,43 +120,6 @@ inline float ProjectiveIntegrator::value_for_code(std::uint16_t code, float a, f
 }
 
 namespace {
-
-// The δ-interval [t0, t1] of the ray δ ↦ δ w inside the box [lo, hi], from d_min
-// on; false when the ray misses the box.
-inline bool clip_ray(const Eigen::Vector3f& w, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
-                     float d_min, float* t0, float* t1) {
-  float enter = d_min;
-  float leave = 1e30f;
-  for (int k = 0; k < 3; ++k) {
-    const float inv = 1.0f / w[k];  // ±inf for an axis-parallel ray: handled below
-    float ta = lo[k] * inv, tb = hi[k] * inv;
-    if (ta > tb) std::swap(ta, tb);
-    if (!(ta <= tb)) {  // NaN: 0 * inf, the ray runs in a slab face
-      ta = -1e30f;
-      tb = 1e30f;
-    }
-    enter = std::max(enter, ta);
-    leave = std::min(leave, tb);
-  }
-  *t0 = enter;
-  *t1 = leave;
-  return enter < leave;
-}
-
-}  // namespace
-
-namespace {
-
-// The rays of one row segment, four pixels side by side (GCC/Clang vector
-// extensions: SSE2 on x86-64, NEON on aarch64, no intrinsics): the
-// largest m̂ over the rays' parts inside the box, kNoRay when none crosses it.
-// Same rule as clip_ray + value_for_code, written without branches.
-struct RowRays {
-  const std::uint16_t* codes;  // the segment's first pixel
-  int count;
-  float w0[3];  // direction of the first pixel's ray
-  float dw[3];  // change per pixel
-};
 
 using Lanes = float __attribute__((vector_size(16)));
 inline Lanes lanes_min(Lanes a, Lanes b) {
@@ -180,41 +204,60 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
   return sides;
 }
 
-float row_best(const RowRays& row, const float lo[3], const float hi[3], float d_min, float d_max,
-               float code_to_m, float resolution_factor) {
-  Lanes best = splat(kNoRay);
-  for (int first = 0; first < row.count; first += 4) {
-    const Lanes index = splat(static_cast<float>(first)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
-    Lanes enter = splat(d_min), leave = splat(1e30f);
-    for (int k = 0; k < 3; ++k) {
-      const Lanes w = splat(row.w0[k]) + index * splat(row.dw[k]);
-      // A ray parallel to a slab: a tiny offset keeps the products finite.
-      const Lanes safe = w < 0.0f ? w - 1e-20f : w + 1e-20f;
-      const Lanes inv = 1.0f / safe;
-      const Lanes ta = splat(lo[k]) * inv, tb = splat(hi[k]) * inv;
-      enter = lanes_max(enter, lanes_min(ta, tb));
-      leave = lanes_min(leave, lanes_max(ta, tb));
-    }
-    Lanes code = splat(static_cast<float>(DepthRangeTable::kMissing));
-    for (int i = 0; i < 4 && first + i < row.count; ++i) {
-      code[i] = static_cast<float>(row.codes[first + i]);
-    }
-    const auto far = code == static_cast<float>(DepthRangeTable::kFar);
-    const auto missing = code == static_cast<float>(DepthRangeTable::kMissing);
-    const Lanes d = code * code_to_m;
-    const Lanes resolution = lanes_max(d * d * resolution_factor, splat(1e-6f));
-    const Lanes end = far ? splat(d_max) : lanes_min(d + resolution, splat(d_max));
-    const Lanes delta = lanes_min(lanes_max(d, enter), lanes_min(leave, end));
-    const Lanes offset = delta - d;
-    // Eq. (4)/(5) as one expression: continuous, -1 up to d - 2Δd, peak at d, 0
-    // at d + Δd (delta never goes past the ray's end).
-    const Lanes peak = 1.0f - (offset < 0.0f ? -offset : offset) / resolution;
-    Lanes value = lanes_max(peak, splat(-1.0f));
-    value = far ? splat(-1.0f) : value;
-    const auto crosses = (missing == 0) & (enter < leave) & (enter <= end);
-    best = lanes_max(best, crosses ? value : splat(kNoRay));
+// The largest m̂ over four pixel rays' parts inside the box [lo, hi] (camera
+// centre at the origin; the ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)),
+// kNoRay when none crosses it. Same rule as the reference (each ray clipped to the box, then
+// value_for_code over the part inside), written
+// without branches.
+inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayBasis& basis, const float lo[3],
+                       const float hi[3], float d_min, float d_max, float code_to_m,
+                       float resolution_factor) {
+  Lanes enter = splat(d_min), leave = splat(1e30f);
+  for (int k = 0; k < 3; ++k) {
+    const Lanes w = splat(basis.w00[k]) + u * splat(basis.du[k]) + v * splat(basis.dv[k]);
+    // A ray parallel to a slab: a tiny offset keeps the products finite.
+    const Lanes safe = w < 0.0f ? w - 1e-20f : w + 1e-20f;
+    const Lanes inv = 1.0f / safe;
+    const Lanes ta = splat(lo[k]) * inv, tb = splat(hi[k]) * inv;
+    enter = lanes_max(enter, lanes_min(ta, tb));
+    leave = lanes_min(leave, lanes_max(ta, tb));
   }
-  return std::max(std::max(best[0], best[1]), std::max(best[2], best[3]));
+  const auto far = code == static_cast<float>(DepthRangeTable::kFar);
+  const auto missing = code == static_cast<float>(DepthRangeTable::kMissing);
+  const Lanes d = code * code_to_m;
+  const Lanes resolution = lanes_max(d * d * resolution_factor, splat(1e-6f));
+  const Lanes end = far ? splat(d_max) : lanes_min(d + resolution, splat(d_max));
+  const Lanes delta = lanes_min(lanes_max(d, enter), lanes_min(leave, end));
+  const Lanes offset = delta - d;
+  // Eq. (4)/(5) as one expression: continuous, -1 up to d - 2Δd, peak at d, 0
+  // at d + Δd (delta never goes past the ray's end).
+  const Lanes peak = 1.0f - (offset < 0.0f ? -offset : offset) / resolution;
+  Lanes value = lanes_max(peak, splat(-1.0f));
+  value = far ? splat(-1.0f) : value;
+  const auto crosses = (missing == 0) & (enter < leave) & (enter <= end);
+  return crosses ? value : splat(kNoRay);
+}
+
+inline float lanes_hmax(Lanes v) {
+  return std::max(std::max(v[0], v[1]), std::max(v[2], v[3]));
+}
+
+// The rays of one row segment of the depth image, four at a time.
+float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBasis& basis,
+               const float lo[3], const float hi[3], float d_min, float d_max, float code_to_m,
+               float resolution_factor) {
+  Lanes best = splat(kNoRay);
+  const Lanes row = splat(static_cast<float>(v));
+  for (int first = 0; first < count; first += 4) {
+    const Lanes u = splat(static_cast<float>(u0 + first)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
+    Lanes code = splat(static_cast<float>(DepthRangeTable::kMissing));
+    for (int i = 0; i < 4 && first + i < count; ++i) {
+      code[i] = static_cast<float>(codes[first + i]);
+    }
+    best = lanes_max(
+        best, rays_best(u, row, code, basis, lo, hi, d_min, d_max, code_to_m, resolution_factor));
+  }
+  return lanes_hmax(best);
 }
 
 }  // namespace
@@ -260,8 +303,6 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // first ray that does; when none does, the sign is lower and the second pass
   // takes the exact maximum over the other tiles (those that can beat `best`).
   constexpr int kTileW = 8, kTileH = 4;
-  const float lo[3] = {cell.lo.x(), cell.lo.y(), cell.lo.z()};
-  const float hi[3] = {cell.hi.x(), cell.hi.y(), cell.hi.z()};
   // The depths (codes) whose rays can reach the sign sought in the cell: a
   // depth below a reaches it when d + Δd(d) (scaled by the rounding margin)
   // passes a, a depth above b when d - Δd(d) stays below b (roots of the
@@ -309,15 +350,12 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
           continue;
         }
         for (int v = ty; v <= ey; ++v) {
-          const Eigen::Vector3f w =
-              cell.w00 + static_cast<float>(tx) * cell.du + static_cast<float>(v) * cell.dv;
-          const RowRays row{depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
-                            ex - tx + 1,
-                            {w.x(), w.y(), w.z()},
-                            {cell.du.x(), cell.du.y(), cell.du.z()}};
-          clipped += row.count;
-          best =
-              std::max(best, row_best(row, lo, hi, d_min_, d_max_, code_to_m_, resolution_factor_));
+          const int count = ex - tx + 1;
+          clipped += count;
+          best = std::max(
+              best, row_best(depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx, tx,
+                             v, count, cell.basis, cell.lo, cell.hi, d_min_, d_max_, code_to_m_,
+                             resolution_factor_));
           if (pass == 0 && best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
             *rays += clipped;
             return best;
@@ -358,42 +396,55 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
   const Eigen::Vector3d t = world_T_camera.translation();
   const double half_z = 0.5 * side * rt.row(2).cwiseAbs().sum();
   const int w = camera_.width, h = camera_.height;
-  const double fx = camera_.fx, fy = camera_.fy, cx = camera_.cx, cy = camera_.cy;
-  Eigen::Vector3d corners[8];
+  const auto fx = static_cast<float>(camera_.fx), fy = static_cast<float>(camera_.fy);
+  const auto cx = static_cast<float>(camera_.cx), cy = static_cast<float>(camera_.cy);
+  const auto w_last = static_cast<float>(w - 1), h_last = static_cast<float>(h - 1);
+  // Corner offsets from a block's centre in the camera frame, four at a time.
+  Lanes corner_x[2], corner_y[2], corner_z[2];
   for (int k = 0; k < 8; ++k) {
-    corners[k] =
-        rt * Eigen::Vector3d((k & 1) ? side : 0.0, (k & 2) ? side : 0.0, (k & 4) ? side : 0.0);
+    const Eigen::Vector3d o =
+        rt * Eigen::Vector3d((k & 1) ? 0.5 * side : -0.5 * side, (k & 2) ? 0.5 * side : -0.5 * side,
+                             (k & 4) ? 0.5 * side : -0.5 * side);
+    corner_x[k / 4][k % 4] = static_cast<float>(o.x());
+    corner_y[k / 4][k % 4] = static_cast<float>(o.y());
+    corner_z[k / 4][k % 4] = static_cast<float>(o.z());
   }
-  std::size_t i = 0;
+  // Blocks outside the frustum hold no cell that draw() visits: they stay mixed.
+  std::fill_n(block_class_.get(), block_count_, kBlockMixed);
+  const Frustum frustum = make_frustum(world_T_camera, camera_, d_min_, d_max_, side);
+  const Eigen::Vector3d base = Eigen::Vector3d(origin.x, origin.y, origin.z) * cell_size_m_ +
+                               Eigen::Vector3d::Constant(0.5 * side);  // centre of block (0, 0, 0)
+  const Eigen::Vector3d step_x_camera = rt.col(0) * side;
   for (int bz = 0; bz < blocks_[2]; ++bz) {
     for (int by = 0; by < blocks_[1]; ++by) {
-      for (int bx = 0; bx < blocks_[0]; ++bx, ++i) {
-        block_class_[i] = kBlockMixed;
-        const Eigen::Vector3d lo = Eigen::Vector3d(origin.x + bx * kBlock, origin.y + by * kBlock,
-                                                   origin.z + bz * kBlock) *
-                                   cell_size_m_;
-        const Eigen::Vector3d pc = rt * (lo - t);  // the block's minimum corner, camera frame
-        const double zc = (rt * (lo + Eigen::Vector3d::Constant(0.5 * side) - t)).z();
+      const double wy = base.y() + by * side, wz = base.z() + bz * side;
+      int bx_lo = 0, bx_hi = -1;
+      if (!frustum.row(wy, wz, base.x(), side, blocks_[0], &bx_lo, &bx_hi)) continue;
+      std::size_t i = static_cast<std::size_t>(bx_lo) +
+                      static_cast<std::size_t>(blocks_[0]) *
+                          (static_cast<std::size_t>(by) +
+                           static_cast<std::size_t>(blocks_[1]) * static_cast<std::size_t>(bz));
+      Eigen::Vector3d pc = rt * (Eigen::Vector3d(base.x() + bx_lo * side, wy, wz) - t);
+      for (int bx = bx_lo; bx <= bx_hi; ++bx, ++i, pc += step_x_camera) {
+        const double zc = pc.z();
         if (zc + half_z < d_min_ || zc - half_z > d_max_) continue;
-        double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
-        bool behind = false;
-        for (const Eigen::Vector3d& o : corners) {
-          const Eigen::Vector3d q = pc + o;
-          if (q.z() < 1e-6) {
-            behind = true;
-            break;
-          }
-          const double u = fx * q.x() / q.z(), v = fy * q.y() / q.z();
-          u0 = std::min(u0, u);
-          u1 = std::max(u1, u);
-          v0 = std::min(v0, v);
-          v1 = std::max(v1, v);
-        }
-        if (behind) continue;
-        const int px0 = std::max(0, static_cast<int>(std::ceil(u0 + cx)));
-        const int px1 = std::min(w - 1, static_cast<int>(std::floor(u1 + cx)));
-        const int py0 = std::max(0, static_cast<int>(std::ceil(v0 + cy)));
-        const int py1 = std::min(h - 1, static_cast<int>(std::floor(v1 + cy)));
+        const auto px = static_cast<float>(pc.x()), py = static_cast<float>(pc.y()),
+                   pz = static_cast<float>(zc);
+        const Lanes qz0 = splat(pz) + corner_z[0], qz1 = splat(pz) + corner_z[1];
+        const auto behind = (qz0 < 1e-6f) | (qz1 < 1e-6f);
+        if (behind[0] | behind[1] | behind[2] | behind[3]) continue;
+        const Lanes u_a = (splat(px) + corner_x[0]) / qz0, u_b = (splat(px) + corner_x[1]) / qz1;
+        const Lanes v_a = (splat(py) + corner_y[0]) / qz0, v_b = (splat(py) + corner_y[1]) / qz1;
+        const Lanes u_lo = lanes_min(u_a, u_b), u_hi = lanes_max(u_a, u_b);
+        const Lanes v_lo = lanes_min(v_a, v_b), v_hi = lanes_max(v_a, v_b);
+        const float u0 = fx * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx;
+        const float u1 = fx * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx;
+        const float v0 = fy * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy;
+        const float v1 = fy * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy;
+        const int px0 = static_cast<int>(std::ceil(std::max(u0, 0.0f)));
+        const int px1 = static_cast<int>(std::floor(std::min(u1, w_last)));
+        const int py0 = static_cast<int>(std::ceil(std::max(v0, 0.0f)));
+        const int py1 = static_cast<int>(std::floor(std::min(v1, h_last)));
         if (px0 > px1 || py0 > py1) {
           block_class_[i] = kBlockUnseen;
           continue;
@@ -423,25 +474,11 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   const Eigen::Vector3d t = world_T_camera.translation();
   // Half extents of a cell along the camera axes (the camera-frame AABB of a cube).
   const Eigen::Vector3d half = 0.5 * s * r.cwiseAbs().colwise().sum().transpose();
-  const double margin = 0.5 * s * std::sqrt(3.0);
   const int w = camera_.width, h = camera_.height;
   const double fx = camera_.fx, fy = camera_.fy, cx = camera_.cx, cy = camera_.cy;
 
-  // Frustum planes in the camera frame (n . p >= c), widened by a cell's half diagonal.
-  const double kl = (0.0 - cx) / fx, kr = (w - 1 - cx) / fx;
-  const double kt = (0.0 - cy) / fy, kb = (h - 1 - cy) / fy;
-  Eigen::Vector3d normals[6] = {{1, 0, -kl}, {-1, 0, kr}, {0, 1, -kt},
-                                {0, -1, kb}, {0, 0, 1},   {0, 0, -1}};
-  double offsets[6] = {0, 0, 0, 0, d_min_ - half.z(), -(d_max_ + half.z())};
-  for (int i = 0; i < 6; ++i) {
-    const double len = normals[i].norm();
-    normals[i] /= len;
-    offsets[i] /= len;
-    offsets[i] -= margin;
-    // To the world frame: n_c . R^T (p - t) >= c  <=>  (R n_c) . p >= c + (R n_c) . t
-    normals[i] = r * normals[i];
-    offsets[i] += normals[i].dot(t);
-  }
+  // The frustum, widened by a cell's half diagonal: the cells worth a look.
+  const Frustum frustum = make_frustum(world_T_camera, camera_, d_min_, d_max_, s);
   // Cell (x, y, z) of the grid has its centre at base + (x, y, z) * s.
   const Eigen::Vector3d base =
       (Eigen::Vector3d(origin.x, origin.y, origin.z) + Eigen::Vector3d::Constant(0.5)) * s;
@@ -461,14 +498,29 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
     corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
     corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
   }
+  // Probe points relative to a cell's centre (camera frame): the centre, 3/4 of
+  // the way to the farthest and to the nearest corner; lane 3 is replaced by the
+  // footprint's centre.
+  Lanes probe_x{}, probe_y{}, probe_z{};
+  for (int i = 1; i < 3; ++i) {
+    const Eigen::Vector3d o = (i == 1 ? 0.75 : -0.75) * corners[far_corner];
+    probe_x[i] = static_cast<float>(o.x());
+    probe_y[i] = static_cast<float>(o.y());
+    probe_z[i] = static_cast<float>(o.z());
+  }
   // Pixel rays in world axes, for the ray-by-ray rule.
   CellRays cell;
   {
     const Eigen::Matrix3f rf = r.cast<float>();
-    cell.du = rf.col(0) / static_cast<float>(fx);
-    cell.dv = rf.col(1) / static_cast<float>(fy);
-    cell.w00 =
+    const Eigen::Vector3f du = rf.col(0) / static_cast<float>(fx);
+    const Eigen::Vector3f dv = rf.col(1) / static_cast<float>(fy);
+    const Eigen::Vector3f w00 =
         rf * Eigen::Vector3f(static_cast<float>(-cx / fx), static_cast<float>(-cy / fy), 1.0f);
+    for (int k = 0; k < 3; ++k) {
+      cell.basis.w00[k] = w00[k];
+      cell.basis.du[k] = du[k];
+      cell.basis.dv[k] = dv[k];
+    }
   }
   const auto cell_size = static_cast<float>(s);
   // The ray of the pixel nearest to a cell's projected centre passes within
@@ -483,25 +535,9 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   int touched_hi[3] = {-1, -1, -1};
   for (int z = 0; z < dims[2]; ++z) {
     for (int y = 0; y < dims[1]; ++y) {
-      // The x range of this row inside every plane.
-      double x_lo = 0.0, x_hi = dims[0] - 1;
       const double wy = base.y() + y * s, wz = base.z() + z * s;
-      for (int i = 0; i < 6 && x_lo <= x_hi; ++i) {
-        const Eigen::Vector3d& n = normals[i];
-        const double rest = n.y() * wy + n.z() * wz - offsets[i];  // n.x * X + rest >= 0
-        if (std::fabs(n.x()) < 1e-12) {
-          if (rest < 0.0) x_hi = -1.0;
-          continue;
-        }
-        const double bound = (-rest / n.x() - base.x()) / s;  // in cells
-        if (n.x() > 0.0) {
-          x_lo = std::max(x_lo, std::ceil(bound));
-        } else {
-          x_hi = std::min(x_hi, std::floor(bound));
-        }
-      }
-      if (x_lo > x_hi) continue;
-      const int xa = static_cast<int>(x_lo), xb = static_cast<int>(x_hi);
+      int xa = 0, xb = -1;
+      if (!frustum.row(wy, wz, base.x(), s, dims[0], &xa, &xb)) continue;
       touched_lo[0] = std::min(touched_lo[0], xa);
       touched_hi[0] = std::max(touched_hi[0], xb);
       touched_lo[1] = std::min(touched_lo[1], y);
@@ -596,32 +632,42 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           // are all free. The ray through the cell's centre pixel gives a lower
           // bound; when it rounds to U's sign the sign is settled, else the rays
           // are looked at one by one, as the reference does, until one does.
-          cell.lo =
+          const Eigen::Vector3f cell_lo =
               (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
-          cell.hi = cell.lo + Eigen::Vector3f::Constant(cell_size);
-          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
-          // Probes: the ray through the centre, then one through a point near the
-          // corner farthest from the camera (it runs deepest through the cell).
-          const auto probe = [&](const Eigen::Vector3d& point) {
-            // Rounded to the nearest pixel of the footprint (clamped first: in range).
-            const int u = static_cast<int>(
-                std::clamp(fx * point.x() / point.z() + cx, double(px0), double(px1)) + 0.5);
-            const int v = static_cast<int>(
-                std::clamp(fy * point.y() / point.z() + cy, double(py0), double(py1)) + 0.5);
-            const std::uint16_t code = depths.codes()[static_cast<std::size_t>(v) * w + u];
-            float t0 = 0.0f, t1 = 0.0f;
-            if (code == DepthRangeTable::kMissing ||
-                !clip_ray(
-                    cell.w00 + static_cast<float>(u) * cell.du + static_cast<float>(v) * cell.dv,
-                    cell.lo, cell.hi, d_min_, &t0, &t1)) {
-              return kNoRay;
-            }
-            return value_for_code(code, t0, t1);
-          };
-          float lower = probe(pc);
-          if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
-            lower = std::max(lower, probe(pc + 0.75 * corners[far_corner]));
+          for (int k = 0; k < 3; ++k) {
+            cell.lo[k] = cell_lo[k];
+            cell.hi[k] = cell_lo[k] + cell_size;
           }
+          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
+          // Probes, four rays at once: through the centre, through points near
+          // the corners farthest from and nearest to the camera (the rays that
+          // leave the cell last and enter it first), and through the centre of
+          // the footprint.
+          const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
+                     pzf = static_cast<float>(pc.z());
+          const Lanes qx = splat(pxf) + probe_x, qy = splat(pyf) + probe_y,
+                      qz = splat(pzf) + probe_z;
+          const Lanes footprint_u = splat(0.5f * static_cast<float>(px0 + px1));
+          const Lanes footprint_v = splat(0.5f * static_cast<float>(py0 + py1));
+          const auto ahead = qz > 1e-6f;
+          Lanes pu = ahead ? splat(fx_f) * qx / qz + splat(cx_f) : footprint_u;
+          Lanes pv = ahead ? splat(fy_f) * qy / qz + splat(cy_f) : footprint_v;
+          pu[3] = footprint_u[3];
+          pv[3] = footprint_v[3];
+          // Rounded to the nearest pixel of the footprint (clamped first: in range).
+          pu = lanes_min(lanes_max(pu, splat(static_cast<float>(px0))),
+                         splat(static_cast<float>(px1)));
+          pv = lanes_min(lanes_max(pv, splat(static_cast<float>(py0))),
+                         splat(static_cast<float>(py1)));
+          Lanes probe_code;
+          for (int i = 0; i < 4; ++i) {
+            const int u = static_cast<int>(pu[i] + 0.5f), v = static_cast<int>(pv[i] + 0.5f);
+            pu[i] = static_cast<float>(u);
+            pv[i] = static_cast<float>(v);
+            probe_code[i] = static_cast<float>(depths.codes()[static_cast<std::size_t>(v) * w + u]);
+          }
+          float lower = lanes_hmax(rays_best(pu, pv, probe_code, cell.basis, cell.lo, cell.hi,
+                                             d_min_, d_max_, code_to_m_, resolution_factor_));
           if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
             ++stats.cells_exact;
             const float found =

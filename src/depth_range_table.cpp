@@ -76,29 +76,10 @@ void DepthRangeTable::square_pass(const std::uint16_t* in, std::uint16_t* out, i
   }
 }
 
-void DepthRangeTable::range(int x0, int y0, int x1, int y1, std::uint16_t* lo,
-                            std::uint16_t* hi) const {
-  const int w = x1 - x0 + 1;
-  const int h = y1 - y0 + 1;
-  // The largest square that fits: side = 2^l <= min(w, h).
-  const int l = std::min(
-      static_cast<int>(std::bit_width(static_cast<unsigned>(std::min(w, h)))) - 1, levels_ - 1);
+void DepthRangeTable::range_slow(int x0, int y0, int x1, int y1, int l, std::uint16_t* lo,
+                                 std::uint16_t* hi) const {
   std::uint16_t mn = kMissing;
   std::uint16_t inv_mx = 0xFFFF;
-  if (l > 0 && w <= 2 << l && h <= 2 << l) {
-    // The common case: the four corner squares cover the rectangle.
-    const int side = 1 << l;
-    const std::uint16_t* table = pairs_[static_cast<std::size_t>(l)];
-    const std::size_t row = 2 * static_cast<std::size_t>(width_);
-    const std::uint16_t* p00 = table + static_cast<std::size_t>(y0) * row + 2 * x0;
-    const std::size_t dx = 2 * static_cast<std::size_t>(x1 - side + 1 - x0);
-    const std::size_t dy = static_cast<std::size_t>(y1 - side + 1 - y0) * row;
-    mn = std::min(std::min(p00[0], p00[dx]), std::min(p00[dy], p00[dy + dx]));
-    inv_mx = std::min(std::min(p00[1], p00[dx + 1]), std::min(p00[dy + 1], p00[dy + dx + 1]));
-    *lo = mn;
-    *hi = static_cast<std::uint16_t>(0xFFFF - inv_mx);
-    return;
-  }
   if (l == 0) {  // a one-pixel-wide rectangle: read the codes
     for (int y = y0; y <= y1; ++y) {
       const std::uint16_t* row = codes_.get() + static_cast<std::size_t>(y) * width_;

@@ -1,6 +1,11 @@
 // The local grid M̂: ray traversal, max-write, blur (paper §III-C).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <vector>
+
 #include "zonemap/local_grid.hpp"
 #include "zonemap/zone_map.hpp"
 
@@ -124,6 +129,78 @@ TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
   // The grid border blurs against unknown (0), so it weakens but keeps its sign.
   EXPECT_LT(grid.at(0, 0, 0), 0);
   EXPECT_GT(grid.at(0, 0, 0), -kCellScale / 2);
+}
+
+// The blur written the plain way: three passes of the binomial kernel, each
+// rounded symmetrically, the cells outside the active region unknown (0).
+std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
+                                const std::array<int, 3>& lo, const std::array<int, 3>& hi,
+                                int radius) {
+  const int weights[3][5] = {{1, 0, 0, 0, 0}, {1, 2, 1, 0, 0}, {1, 4, 6, 4, 1}};
+  const auto at = [&](const std::vector<int>& g, int x, int y, int z) {
+    if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1] || z < lo[2] || z > hi[2]) return 0;
+    return g[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))];
+  };
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<int> out = v;
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          int sum = 0;
+          for (int k = -radius; k <= radius; ++k) {
+            const int dx = axis == 0 ? k : 0, dy = axis == 1 ? k : 0, dz = axis == 2 ? k : 0;
+            sum += weights[radius][k + radius] * at(v, x + dx, y + dy, z + dz);
+          }
+          const int shift = 2 * radius, half = 1 << (shift - 1);
+          out[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] =
+              sum >= 0 ? (sum + half) >> shift : -((-sum + half) >> shift);
+        }
+    v = out;
+  }
+  return v;
+}
+
+TEST(LocalGrid, BlurEqualsThePlainThreePassBinomial) {
+  // Random values in a touched box inside a larger grid, both kernel radii.
+  const std::array<int, 3> n = {23, 17, 11};
+  const std::array<int, 3> touched_lo = {3, 2, 1}, touched_hi = {19, 14, 9};
+  std::uint32_t state = 12345;
+  for (int radius = 1; radius <= 2; ++radius) {
+    LocalGrid grid(n);
+    grid.reset(CellIndex{});
+    grid.extend_touched(touched_lo[0], touched_lo[1], touched_lo[2], touched_hi[0], touched_hi[1],
+                        touched_hi[2]);
+    std::vector<int> values(static_cast<std::size_t>(n[0] * n[1] * n[2]), 0);
+    for (int z = touched_lo[2]; z <= touched_hi[2]; ++z)
+      for (int y = touched_lo[1]; y <= touched_hi[1]; ++y)
+        for (int x = touched_lo[0]; x <= touched_hi[0]; ++x) {
+          state = state * 1664525u + 1013904223u;
+          if ((state >> 28) < 3) continue;  // some cells stay untouched (unknown)
+          const int v = static_cast<int>((state >> 8) % (2 * kCellScale + 1)) - kCellScale;
+          grid.write_max(x, y, z, static_cast<LocalCell>(v));
+          values[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] = v;
+        }
+    grid.finish(radius);
+    std::array<int, 3> lo{}, hi{};
+    for (int a = 0; a < 3; ++a) {
+      lo[static_cast<std::size_t>(a)] =
+          std::max(touched_lo[static_cast<std::size_t>(a)] - radius, 0);
+      hi[static_cast<std::size_t>(a)] = std::min(touched_hi[static_cast<std::size_t>(a)] + radius,
+                                                 n[static_cast<std::size_t>(a)] - 1);
+    }
+    const std::vector<int> expected = reference_blur(values, n, lo, hi, radius);
+    int differing = 0;
+    for (int z = 0; z < n[2]; ++z)
+      for (int y = 0; y < n[1]; ++y)
+        for (int x = 0; x < n[0]; ++x) {
+          const bool active =
+              x >= lo[0] && x <= hi[0] && y >= lo[1] && y <= hi[1] && z >= lo[2] && z <= hi[2];
+          if (!active) continue;
+          differing +=
+              grid.at(x, y, z) != expected[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))];
+        }
+    EXPECT_EQ(differing, 0) << "radius " << radius;
+  }
 }
 
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {

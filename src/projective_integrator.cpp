@@ -132,6 +132,60 @@ inline Lanes splat(float v) {
   return Lanes{v, v, v, v};
 }
 
+// The pixel rectangle a cube covers: the image box of its eight corners, given
+// four at a time as (x, y, z) offsets from its centre (camera frame), clamped
+// into the image; x0 > x1 or y0 > y1 when no pixel sees it. All four bounds in
+// one vector: the horizontal minima and maxima by two transposing steps, the
+// rounding by truncation and a correction (|values| < 2^31 after clamping).
+struct PixelRect {
+  int x0, y0, x1, y1;
+};
+
+struct Projection {
+  Lanes corner_x[2], corner_y[2], corner_z[2];
+  Lanes scale;   // {fx, fx, fy, fy}
+  Lanes offset;  // {-cx, cx, -cy, cy}
+  Lanes limit;   // {0, w - 1, 0, h - 1}
+};
+
+inline Projection projection_for(const CameraModel& camera) {
+  Projection p{};
+  const auto fx = static_cast<float>(camera.fx), fy = static_cast<float>(camera.fy);
+  const auto cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
+  p.scale = Lanes{fx, fx, fy, fy};
+  p.offset = Lanes{-cx, cx, -cy, cy};
+  p.limit = Lanes{0.0f, static_cast<float>(camera.width - 1), 0.0f,
+                  static_cast<float>(camera.height - 1)};
+  return p;
+}
+
+inline PixelRect project_cube(const Projection& p, float px, float py, float pz) {
+  using Ints = std::int32_t __attribute__((vector_size(16)));
+  const Lanes qz0 = splat(pz) + p.corner_z[0], qz1 = splat(pz) + p.corner_z[1];
+  const auto behind = (qz0 < 1e-6f) | (qz1 < 1e-6f);
+  Lanes g = p.limit;  // a corner behind the camera: the whole image
+  if (!(behind[0] | behind[1] | behind[2] | behind[3])) {
+    const Lanes u_a = (splat(px) + p.corner_x[0]) / qz0, u_b = (splat(px) + p.corner_x[1]) / qz1;
+    const Lanes v_a = (splat(py) + p.corner_y[0]) / qz0, v_b = (splat(py) + p.corner_y[1]) / qz1;
+    // Minima of u, -u, v, -v over the eight corners.
+    const Lanes mu = lanes_min(u_a, u_b), nu = -lanes_max(u_a, u_b);
+    const Lanes mv = lanes_min(v_a, v_b), nv = -lanes_max(v_a, v_b);
+    const Lanes t1 = lanes_min(__builtin_shufflevector(mu, nu, 0, 4, 1, 5),
+                               __builtin_shufflevector(mu, nu, 2, 6, 3, 7));
+    const Lanes t2 = lanes_min(__builtin_shufflevector(mv, nv, 0, 4, 1, 5),
+                               __builtin_shufflevector(mv, nv, 2, 6, 3, 7));
+    const Lanes m = lanes_min(__builtin_shufflevector(t1, t2, 0, 1, 4, 5),
+                              __builtin_shufflevector(t1, t2, 2, 3, 6, 7));
+    // {-u_min - cx, u_max + cx, ...} in pixels: floor of each gives
+    // {-ceil(u0), floor(u1), -ceil(v0), floor(v1)}; clamped into the image.
+    g = lanes_min(splat(0.0f) - m * p.scale + p.offset, p.limit);
+    g = lanes_max(g, splat(-1e6f));
+  }
+  const Ints truncated = __builtin_convertvector(g, Ints);
+  const Ints floored = truncated + (__builtin_convertvector(truncated, Lanes) > g);  // -1 if above
+  return PixelRect{-floored[0], -floored[2], floored[1], floored[3]};
+}
+
 // Where a rectangle's codes lie around the codes [lo, hi] of a cell's depth
 // interval: whether one is inside, the largest below and the smallest above
 // (kFar counts as above, missing pixels nowhere). Eight codes at a time.
@@ -395,19 +449,15 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
   const Eigen::Matrix3d rt = world_T_camera.linear().transpose();
   const Eigen::Vector3d t = world_T_camera.translation();
   const double half_z = 0.5 * side * rt.row(2).cwiseAbs().sum();
-  const int w = camera_.width, h = camera_.height;
-  const auto fx = static_cast<float>(camera_.fx), fy = static_cast<float>(camera_.fy);
-  const auto cx = static_cast<float>(camera_.cx), cy = static_cast<float>(camera_.cy);
-  const auto w_last = static_cast<float>(w - 1), h_last = static_cast<float>(h - 1);
   // Corner offsets from a block's centre in the camera frame, four at a time.
-  Lanes corner_x[2], corner_y[2], corner_z[2];
+  Projection projection = projection_for(camera_);
   for (int k = 0; k < 8; ++k) {
     const Eigen::Vector3d o =
         rt * Eigen::Vector3d((k & 1) ? 0.5 * side : -0.5 * side, (k & 2) ? 0.5 * side : -0.5 * side,
                              (k & 4) ? 0.5 * side : -0.5 * side);
-    corner_x[k / 4][k % 4] = static_cast<float>(o.x());
-    corner_y[k / 4][k % 4] = static_cast<float>(o.y());
-    corner_z[k / 4][k % 4] = static_cast<float>(o.z());
+    projection.corner_x[k / 4][k % 4] = static_cast<float>(o.x());
+    projection.corner_y[k / 4][k % 4] = static_cast<float>(o.y());
+    projection.corner_z[k / 4][k % 4] = static_cast<float>(o.z());
   }
   // Blocks outside the frustum hold no cell that draw() visits: they stay mixed.
   std::fill_n(block_class_.get(), block_count_, kBlockMixed);
@@ -428,23 +478,9 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
       for (int bx = bx_lo; bx <= bx_hi; ++bx, ++i, pc += step_x_camera) {
         const double zc = pc.z();
         if (zc + half_z < d_min_ || zc - half_z > d_max_) continue;
-        const auto px = static_cast<float>(pc.x()), py = static_cast<float>(pc.y()),
-                   pz = static_cast<float>(zc);
-        const Lanes qz0 = splat(pz) + corner_z[0], qz1 = splat(pz) + corner_z[1];
-        const auto behind = (qz0 < 1e-6f) | (qz1 < 1e-6f);
-        if (behind[0] | behind[1] | behind[2] | behind[3]) continue;
-        const Lanes u_a = (splat(px) + corner_x[0]) / qz0, u_b = (splat(px) + corner_x[1]) / qz1;
-        const Lanes v_a = (splat(py) + corner_y[0]) / qz0, v_b = (splat(py) + corner_y[1]) / qz1;
-        const Lanes u_lo = lanes_min(u_a, u_b), u_hi = lanes_max(u_a, u_b);
-        const Lanes v_lo = lanes_min(v_a, v_b), v_hi = lanes_max(v_a, v_b);
-        const float u0 = fx * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx;
-        const float u1 = fx * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx;
-        const float v0 = fy * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy;
-        const float v1 = fy * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy;
-        const int px0 = static_cast<int>(std::ceil(std::max(u0, 0.0f)));
-        const int px1 = static_cast<int>(std::floor(std::min(u1, w_last)));
-        const int py0 = static_cast<int>(std::ceil(std::max(v0, 0.0f)));
-        const int py1 = static_cast<int>(std::floor(std::min(v1, h_last)));
+        const PixelRect rect = project_cube(projection, static_cast<float>(pc.x()),
+                                            static_cast<float>(pc.y()), static_cast<float>(zc));
+        const int px0 = rect.x0, px1 = rect.x1, py0 = rect.y0, py1 = rect.y1;
         if (px0 > px1 || py0 > py1) {
           block_class_[i] = kBlockUnseen;
           continue;
@@ -492,11 +528,11 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   for (int k = 1; k < 8; ++k) {
     if (corners[k].z() > corners[far_corner].z()) far_corner = k;
   }
-  Lanes corner_x[2], corner_y[2], corner_z[2];
+  Projection projection = projection_for(camera_);
   for (int k = 0; k < 8; ++k) {
-    corner_x[k / 4][k % 4] = static_cast<float>(corners[k].x());
-    corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
-    corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
+    projection.corner_x[k / 4][k % 4] = static_cast<float>(corners[k].x());
+    projection.corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
+    projection.corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
   }
   // Probe points relative to a cell's centre (camera frame): the centre, 3/4 of
   // the way to the farthest and to the nearest corner; lane 3 is replaced by the
@@ -528,7 +564,6 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   const double quick_max_depth = s * std::min(fx, fy) / 1.5;
   const auto fx_f = static_cast<float>(fx), fy_f = static_cast<float>(fy);
   const auto cx_f = static_cast<float>(cx), cy_f = static_cast<float>(cy);
-  const auto w_last = static_cast<float>(w - 1), h_last = static_cast<float>(h - 1);
 
   ProjectiveStats stats;
   int touched_lo[3] = {dims[0], dims[1], dims[2]};
@@ -545,17 +580,25 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
       touched_lo[2] = std::min(touched_lo[2], z);
       touched_hi[2] = std::max(touched_hi[2], z);
       Eigen::Vector3d pc = rt * (Eigen::Vector3d(base.x() + xa * s, wy, wz) - t);
+      const std::uint8_t* block_row =
+          block_class_.get() +
+          static_cast<std::size_t>(blocks_[0]) *
+              (static_cast<std::size_t>(y / kBlock) +
+               static_cast<std::size_t>(blocks_[1]) * static_cast<std::size_t>(z / kBlock));
       for (int x = xa; x <= xb; ++x, pc += step_x_camera) {
+        const std::uint8_t block = block_row[x / kBlock];
+        if (block == kBlockUnseen) {
+          // The rest of the block at once: no ray reaches any of its cells.
+          const int last = std::min(xb, (x / kBlock) * kBlock + kBlock - 1);
+          stats.cells_hidden += last - x + 1;
+          pc += static_cast<double>(last - x) * step_x_camera;
+          x = last;
+          continue;
+        }
         const double zc = pc.z();
         const double a = std::max(zc - half.z(), static_cast<double>(d_min_));
         const double b = zc + half.z();
         if (b < d_min_ || a > d_max_) continue;
-        const std::uint8_t block = block_class_[static_cast<std::size_t>(
-            (x / kBlock) + blocks_[0] * ((y / kBlock) + blocks_[1] * (z / kBlock)))];
-        if (block == kBlockUnseen) {
-          ++stats.cells_hidden;
-          continue;
-        }
         // The bulk of the frustum is free space or hidden behind surfaces. When
         // every pixel ray near the cell is free across it (known for its whole
         // block, or from the depth range over the cell's footprint), the ray of
@@ -578,31 +621,10 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           }
         }
         // The image box of the cube's eight projected corners: the pixels whose
-        // rays can cross the cell (four corners at a time, in float).
-        float u0 = -1e30f, u1 = 1e30f, v0 = -1e30f, v1 = 1e30f;
-        {
-          const auto px = static_cast<float>(pc.x()), py = static_cast<float>(pc.y()),
-                     pz = static_cast<float>(pc.z());
-          const Lanes qz0 = splat(pz) + corner_z[0], qz1 = splat(pz) + corner_z[1];
-          const auto behind = (qz0 < 1e-6f) | (qz1 < 1e-6f);
-          if (!(behind[0] | behind[1] | behind[2] | behind[3])) {
-            const Lanes u_a = (splat(px) + corner_x[0]) / qz0,
-                        u_b = (splat(px) + corner_x[1]) / qz1;
-            const Lanes v_a = (splat(py) + corner_y[0]) / qz0,
-                        v_b = (splat(py) + corner_y[1]) / qz1;
-            const Lanes u_lo = lanes_min(u_a, u_b), u_hi = lanes_max(u_a, u_b);
-            const Lanes v_lo = lanes_min(v_a, v_b), v_hi = lanes_max(v_a, v_b);
-            u0 = fx_f * std::min(std::min(u_lo[0], u_lo[1]), std::min(u_lo[2], u_lo[3])) + cx_f;
-            u1 = fx_f * std::max(std::max(u_hi[0], u_hi[1]), std::max(u_hi[2], u_hi[3])) + cx_f;
-            v0 = fy_f * std::min(std::min(v_lo[0], v_lo[1]), std::min(v_lo[2], v_lo[3])) + cy_f;
-            v1 = fy_f * std::max(std::max(v_hi[0], v_hi[1]), std::max(v_hi[2], v_hi[3])) + cy_f;
-          }
-        }
-        // Clamped into the image first, so that the conversions stay in range.
-        const int px0 = static_cast<int>(std::ceil(std::max(u0, 0.0f)));
-        const int px1 = static_cast<int>(std::floor(std::min(u1, w_last)));
-        const int py0 = static_cast<int>(std::ceil(std::max(v0, 0.0f)));
-        const int py1 = static_cast<int>(std::floor(std::min(v1, h_last)));
+        // rays can cross the cell.
+        const PixelRect rect = project_cube(projection, static_cast<float>(pc.x()),
+                                            static_cast<float>(pc.y()), static_cast<float>(pc.z()));
+        const int px0 = rect.x0, px1 = rect.x1, py0 = rect.y0, py1 = rect.y1;
         if (px0 > px1 || py0 > py1) continue;  // no pixel sees the cell
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(px0, py0, px1, py1, &lo_code, &hi_code);

@@ -215,7 +215,10 @@ TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
       static_cast<long long>(p.output_thread_frees), p.rss_after_start, p.rss_at_end);
   EXPECT_GT(p.frames_mapped, 50);
   EXPECT_GT(run.stats().zones_allocated, 8);
-  EXPECT_EQ(p.outputs_published, p.frames_mapped);
+  // An update the output thread has no free buffer for is skipped (the next one
+  // carries the whole map again); each is counted.
+  EXPECT_EQ(p.outputs_published + p.outputs_skipped, p.frames_mapped);
+  EXPECT_GT(p.outputs_published, p.frames_mapped / 2);
   EXPECT_EQ(p.mapping_thread_allocations, 0);
   EXPECT_EQ(p.mapping_thread_frees, 0);
   EXPECT_EQ(p.output_thread_allocations, 0);

@@ -177,6 +177,21 @@ void LocalGrid::blur_x(int radius) {
   const int x0 = active_lo_[0];
   const int n = active_hi_[0] - x0 + 1;
   std::int16_t* line = line_.get();
+  if (radius == 1) {
+    // The default kernel: the row's original, padded with unknown (0) on both
+    // sides, in the saved rows; one vectorised pass writes the row.
+    LocalCell* padded = saved_.get();
+    padded[0] = 0;
+    padded[n + 1] = 0;
+    for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
+      for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+        LocalCell* row = cells_.get() + index(x0, y, z);
+        std::copy_n(row, n, padded + 1);
+        blur_row3(padded, padded + 1, padded + 2, row, n);
+      }
+    }
+    return;
+  }
   for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
     for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
       LocalCell* row = cells_.get() + index(x0, y, z);

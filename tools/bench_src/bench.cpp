@@ -4,14 +4,17 @@
 //                                      it, per resolution; scaling with image size
 //                                      and d_max
 //   zonemap-bench --micro [gbench args]  Google Benchmark micro benchmarks per stage
-//   zonemap-bench --projective CELL [--frames N] [--repeat R]  only the projective path
-//                                      at one cell size, R passes, the best median
-//                                      (for profiling: perf stat / perf record)
+//   zonemap-bench --projective CELL [--frames N] [--repeat R] [--full-extent]
+//                                      only the projective path at one cell size, R
+//                                      passes, the best median (for profiling: perf
+//                                      stat / perf record); --full-extent: 0.25 m
+//                                      cells over the 80 x 80 x 40 m environment
 // One core, same frames for every contender, frames rendered in memory (no I/O).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -58,11 +61,17 @@ Frames make_frames(int width, int count) {
   return f;
 }
 
-MapConfig config_for(double cell, double d_max, MapConfig::Integration integration) {
+// The environment (one zone's extent, centred on the camera) is 80 x 80 x 40 m at
+// 1 and 0.5 m; at 0.25 m it is 64 x 64 x 16 m (256 x 256 x 64 cells, within the
+// flight memory budget) unless `full_extent`: then 80 x 80 x 40 m too (320 x 320
+// x 160 cells, 33 MB per zone: a benchmark-only configuration).
+MapConfig config_for(double cell, double d_max, MapConfig::Integration integration,
+                     bool full_extent = false) {
   MapConfig c;
   c.cell_size_m = cell;
   c.zone_cells = cell >= 1.0   ? std::array<int, 3>{80, 80, 40}
                  : cell >= 0.5 ? std::array<int, 3>{160, 160, 80}
+                 : full_extent ? std::array<int, 3>{320, 320, 160}
                                : std::array<int, 3>{256, 256, 64};
   c.d_min_m = 8.0;
   c.d_max_m = d_max;
@@ -153,9 +162,10 @@ void comparison(int frame_count) {
   std::printf("%-6s %-22s %-22s %-22s %-10s %-12s %-9s %-18s\n", "cell", "zonemap projective",
               "zonemap reference", "octomap 1.9.7", "ratio", "cells/frame", "ns/cell",
               "quick-free / exact cells / rays");
-  for (double cell : {1.0, 0.5, 0.25}) {
-    const Timing fast =
-        time_zonemap(f640, config_for(cell, 50.0, MapConfig::Integration::kProjective));
+  for (const double cell : {1.0, 0.5, 0.25, -0.25}) {  // -0.25: 0.25 m, 80 x 80 x 40 m
+    const bool full_extent = cell < 0.0;
+    const Timing fast = time_zonemap(
+        f640, config_for(std::fabs(cell), 50.0, MapConfig::Integration::kProjective, full_extent));
     Timing reference;
     if (cell >= 0.5)
       reference = time_zonemap(f640, config_for(cell, 50.0, MapConfig::Integration::kReference));
@@ -166,18 +176,24 @@ void comparison(int frame_count) {
     char octo_text[64] = "not built";
     char ratio_text[32] = "-";
 #ifdef ZONEMAP_HAVE_OCTOMAP
-    const Timing octo =
-        time_octomap(f640, cell, 50.0, cell < 0.5 ? 3 : static_cast<std::size_t>(frame_count));
+    // OctoMap has no environment: one figure per resolution, the full range.
+    static Timing octo;
+    if (!full_extent)
+      octo = time_octomap(f640, cell, 50.0, cell < 0.5 ? 3 : static_cast<std::size_t>(frame_count));
     std::snprintf(octo_text, sizeof(octo_text), "%.1f / %.1f", octo.median_ms, octo.p99_ms);
     std::snprintf(ratio_text, sizeof(ratio_text), "%.1fx", octo.median_ms / fast.median_ms);
 #endif
     char fast_text[64];
     std::snprintf(fast_text, sizeof(fast_text), "%.1f / %.1f", fast.median_ms, fast.p99_ms);
-    std::printf("%-6.2f %-22s %-22s %-22s %-10s %-12.0f %-9.1f %.0f / %.0f / %.0f\n", cell,
-                fast_text, ref_text, octo_text, ratio_text, fast.cells_per_frame,
+    std::printf("%-6s %-22s %-22s %-22s %-10s %-12.0f %-9.1f %.0f / %.0f / %.0f\n",
+                full_extent ? "0.25*" : (std::to_string(cell).substr(0, 4)).c_str(), fast_text,
+                ref_text, octo_text, ratio_text, fast.cells_per_frame,
                 fast.median_ms * 1e6 / std::max(1.0, fast.cells_per_frame),
                 fast.block_free_per_frame, fast.exact_cells_per_frame, fast.exact_rays_per_frame);
   }
+  std::printf(
+      "0.25: 64 x 64 x 16 m environment (flight budget); 0.25*: 80 x 80 x 40 m, as at 1 and "
+      "0.5 m\n");
   std::printf(
       "\nscaling (projective, 0.5 m cells): image size at d_max 50 m, then d_max at 640x480\n");
   std::printf("%-18s %-16s %-14s\n", "case", "ms median / p99", "cells/frame");
@@ -302,8 +318,11 @@ int main(int argc, char** argv) {
   }
   int frames = 12;
   int repeat = 1;
+  bool full_extent = false;
   double only_cell = 0.0;
-  for (int i = 1; i + 1 < argc; ++i) {
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--full-extent") == 0) full_extent = true;
+    if (i + 1 >= argc) continue;
     if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--projective") == 0) only_cell = std::atof(argv[i + 1]);
     if (std::strcmp(argv[i], "--repeat") == 0) repeat = std::max(1, std::atoi(argv[i + 1]));
@@ -315,8 +334,8 @@ int main(int argc, char** argv) {
     // instructions per frame without the rendering).
     Timing t;
     for (int pass = 0; pass < repeat; ++pass) {
-      const Timing run =
-          time_zonemap(f, config_for(only_cell, 50.0, MapConfig::Integration::kProjective));
+      const Timing run = time_zonemap(
+          f, config_for(only_cell, 50.0, MapConfig::Integration::kProjective, full_extent));
       if (pass == 0 || run.median_ms < t.median_ms) t = run;
     }
     std::printf(

@@ -297,6 +297,23 @@ inline float lanes_hmax(Lanes v) {
 }
 
 // The rays of one row segment of the depth image, four at a time.
+// True when a code of row y, columns [x0, x0 + count) with count <= 8, lies in
+// [lo, hi] (one load of eight codes inside the image, lanes outside masked).
+bool row_has_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
+                     std::uint16_t lo, std::uint16_t hi) {
+  using simd::U16x8;
+  const int start = std::min(x0, width - 8);
+  const U16x8 c = simd::load_u16(codes + static_cast<std::size_t>(y) * width + start);
+  const U16x8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  const auto first = static_cast<std::uint16_t>(x0 - start);
+  const auto end = static_cast<std::uint16_t>(x0 - start + count);
+  const U16x8 inside_row =
+      reinterpret_cast<U16x8>((lane >= simd::splat_u16(first)) & (lane < simd::splat_u16(end)));
+  const U16x8 out_of_range =
+      simd::saturating_sub(simd::splat_u16(lo), c) | simd::saturating_sub(c, simd::splat_u16(hi));
+  return simd::any_u16(reinterpret_cast<U16x8>(out_of_range == U16x8{}) & inside_row);
+}
+
 float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBasis& basis,
                const float lo[3], const float hi[3], float d_min, float d_max, float code_to_m,
                float resolution_factor) {
@@ -372,52 +389,66 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   const auto sign_hi =
       static_cast<std::uint16_t>(std::clamp(std::ceil(reach_hi / code_to_m_) + 1.0f, 0.0f, top));
   std::int64_t clipped = 0;
-  bool skipped = false;
-  bool crossed = false;  // (second pass) some ray is known to cross the cell
-  for (int pass = 0; pass < 2; ++pass) {
-    crossed = best >= -1.0f;
+  const auto scan_row = [&](int tx, int v, int count) {
+    clipped += count;
+    best =
+        std::max(best, row_best(depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
+                                tx, v, count, cell.basis, cell.lo, cell.hi, d_min_, d_max_,
+                                code_to_m_, resolution_factor_));
+  };
+  // Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
+  // only the rows holding such a depth (one vector compare per row), until a ray
+  // reaches the sign.
+  bool passed_over = false;  // some ray was not clipped in pass 1
+  for (int ty = y0; ty <= y1; ty += kTileH) {
+    for (int tx = x0; tx <= x1; tx += kTileW) {
+      const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
+      std::uint16_t lo_code = 0, hi_code = 0;
+      depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+      if (lo_code > hi_code) continue;  // every pixel missing: no ray
+      if (hi_code < sign_lo || lo_code > sign_hi) {
+        passed_over = true;
+        continue;
+      }
+      for (int v = ty; v <= ey; ++v) {
+        if (!row_has_code_in(depths.codes(), depths.width(), tx, ex - tx + 1, v, sign_lo,
+                             sign_hi)) {
+          passed_over = true;
+          continue;
+        }
+        scan_row(tx, v, ex - tx + 1);
+        if (best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
+          *rays += clipped;
+          return best;
+        }
+      }
+    }
+  }
+  // Pass 2 (the sign is lower than U's): the exact maximum over every tile that
+  // can beat the best so far; when a ray is known to cross the cell, a tile that
+  // can only add a free value gives its bound instead (it keeps the sign and
+  // stays above the reference's value).
+  if (passed_over) {
+    const bool crossed = best >= -1.0f;
     for (int ty = y0; ty <= y1; ty += kTileH) {
       for (int tx = x0; tx <= x1; tx += kTileW) {
         const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code) continue;
-        // Pass 1 takes the tiles with a depth in [sign_lo, sign_hi], pass 2 the rest.
-        const bool can_reach_sign = hi_code >= sign_lo && lo_code <= sign_hi;
-        if (can_reach_sign != (pass == 0)) {
-          skipped = skipped || pass == 0;
-          continue;
-        }
-        float bound = 1.0f;
-        if (pass == 1) {
-          bound = std::max(value_for_code(lo_code, cell.a, cell.b),
-                           value_for_code(hi_code, cell.a, cell.b));
-          if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
-              static_cast<float>(lo_code) * code_to_m_ <= cell.b)
-            bound = 1.0f;
-          if (bound <= best) continue;
-        }
-        if (pass == 1 && crossed && to_fixed(bound) < 0) {
-          // A ray is known to cross the cell and this tile can only add a free
-          // value: its bound keeps the sign and stays above the reference's.
+        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
+                               value_for_code(hi_code, cell.a, cell.b));
+        if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
+            static_cast<float>(lo_code) * code_to_m_ <= cell.b)
+          bound = 1.0f;
+        if (bound <= best) continue;
+        if (crossed && to_fixed(bound) < 0) {
           best = std::max(best, bound);
           continue;
         }
-        for (int v = ty; v <= ey; ++v) {
-          const int count = ex - tx + 1;
-          clipped += count;
-          best = std::max(
-              best, row_best(depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx, tx,
-                             v, count, cell.basis, cell.lo, cell.hi, d_min_, d_max_, code_to_m_,
-                             resolution_factor_));
-          if (pass == 0 && best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
-            *rays += clipped;
-            return best;
-          }
-        }
+        for (int v = ty; v <= ey; ++v) scan_row(tx, v, ex - tx + 1);
       }
     }
-    if (!skipped) break;
   }
   *rays += clipped;
   return best;

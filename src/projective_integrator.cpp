@@ -106,6 +106,9 @@ ProjectiveIntegrator::ProjectiveIntegrator(const MapConfig& config, const Camera
       resolution_factor_(
           static_cast<float>(camera.match_sigma_px / (camera.baseline_m * camera.fx))),
       code_to_m_(static_cast<float>(1.0 / camera.depth_scale)),
+      max_real_code_(static_cast<std::uint16_t>(
+          std::clamp(std::floor(config.d_max_m * camera.depth_scale), 1.0,
+                     static_cast<double>(DepthRangeTable::kMaxDepthCode)))),
       camera_(camera) {}
 
 // m̂ maximised over the part of [a, b] the ray covers: the ray of depth d runs
@@ -214,7 +217,16 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
     inside |= reinterpret_cast<U16x8>((below | above) == U16x8{});
   };
   const U16x8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
-  if (x1 - x0 + 1 < 8) {
+  if (width < 8) {
+    // An image narrower than one load: a code at a time.
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        U16x8 c = missing_v;
+        c[0] = codes[static_cast<std::size_t>(y) * width + x];
+        add(c);
+      }
+    }
+  } else if (x1 - x0 + 1 < 8) {
     // Narrow: one load inside the image, lanes outside the rectangle made missing.
     const int start = std::min(x0, width - 8);
     const U16x8 outside =
@@ -302,6 +314,13 @@ inline float lanes_hmax(Lanes v) {
 bool row_has_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
                      std::uint16_t lo, std::uint16_t hi) {
   using simd::U16x8;
+  if (width < 8) {  // an image narrower than one load
+    for (int x = x0; x < x0 + count; ++x) {
+      const std::uint16_t c = codes[static_cast<std::size_t>(y) * width + x];
+      if (c >= lo && c <= hi) return true;
+    }
+    return false;
+  }
   const int start = std::min(x0, width - 8);
   const U16x8 c = simd::load_u16(codes + static_cast<std::size_t>(y) * width + start);
   const U16x8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -333,6 +352,13 @@ float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBa
 
 }  // namespace
 
+// The value of a range's largest depth, for depths above b where m̂(b; d) may
+// rise again: a kFar largest hides the largest real depth, bounded by d_max's.
+inline float ProjectiveIntegrator::far_end(std::uint16_t hi, float a, float b) const {
+  if (hi != DepthRangeTable::kFar) return value_for_code(hi, a, b);
+  return std::max(value_for_code(hi, a, b), value_for_code(max_real_code_, a, b));
+}
+
 float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                        int y1, std::uint16_t lo, std::uint16_t hi, float a,
                                        float b) const {
@@ -342,7 +368,9 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   const float a_code = a / code_to_m_;
   const float b_code = b / code_to_m_;
   if (static_cast<float>(hi) < a_code) return value_for_code(hi, a, b);
-  if (static_cast<float>(lo) > b_code) return value_for_code(lo, a, b);
+  // Above b, m̂(b; d) falls and (with a large Δd, d past 2b) rises again: both
+  // ends of the range count.
+  if (static_cast<float>(lo) > b_code) return std::max(value_for_code(lo, a, b), far_end(hi, a, b));
   // lo <= b and hi >= a. A pixel with its depth inside [a, b] is the peak.
   if (static_cast<float>(lo) >= a_code || static_cast<float>(hi) <= b_code) return 1.0f;
   // lo < a <= b < hi. On a continuous surface (depths spread over less than
@@ -361,7 +389,10 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   if (sides.inside) return 1.0f;
   float best = kNoRay;
   if (sides.any_below) best = value_for_code(sides.below, a, b);
-  if (sides.any_above) best = std::max(best, value_for_code(sides.above, a, b));
+  if (sides.any_above) {
+    // The depths above b run from the smallest found to hi, the range's largest.
+    best = std::max(best, std::max(value_for_code(sides.above, a, b), far_end(hi, a, b)));
+  }
   return best;
 }
 
@@ -436,8 +467,8 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code) continue;
-        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
-                               value_for_code(hi_code, cell.a, cell.b));
+        float bound =
+            std::max(value_for_code(lo_code, cell.a, cell.b), far_end(hi_code, cell.a, cell.b));
         if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
             static_cast<float>(lo_code) * code_to_m_ <= cell.b)
           bound = 1.0f;

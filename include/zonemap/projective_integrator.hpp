@@ -56,6 +56,7 @@ class ProjectiveIntegrator {
   float best_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, std::uint16_t lo,
                    std::uint16_t hi, float a, float b) const;
   float value_for_code(std::uint16_t code, float a, float b) const;
+  float far_end(std::uint16_t hi, float a, float b) const;
   // The reference rule over the pixels of the rectangle: each pixel's ray is
   // clipped to the cell (world box [lo, lo + s]) and m̂ maximised over that part.
   // `best` is a value known to be reached (a lower bound): parts of the footprint
@@ -81,8 +82,9 @@ class ProjectiveIntegrator {
   std::unique_ptr<std::uint8_t[]> block_class_;
   float d_min_;
   float d_max_;
-  float resolution_factor_;  // Δd = d² * factor (eq. 1)
-  float code_to_m_;          // raw depth code -> metres
+  float resolution_factor_;      // Δd = d² * factor (eq. 1)
+  float code_to_m_;              // raw depth code -> metres
+  std::uint16_t max_real_code_;  // the largest real depth code (d_max)
   CameraModel camera_;
 };
 

@@ -362,8 +362,9 @@ inline float ProjectiveIntegrator::far_end(std::uint16_t hi, float a, float b) c
 float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                        int y1, std::uint16_t lo, std::uint16_t hi, float a,
                                        float b) const {
-  // m̂ is unimodal in d with its plateau for d in [a, b]: over a set of depths
-  // entirely below a the largest one decides, entirely above b the smallest.
+  // Over a set of depths entirely below a the largest one decides (m̂(a; d)
+  // rises with d); entirely above b, m̂(b; d) falls with d and, when Δd is large
+  // (d past 2b), rises again: the larger of its two ends decides.
   if (lo > hi) return kNoRay;  // no usable pixel
   const float a_code = a / code_to_m_;
   const float b_code = b / code_to_m_;

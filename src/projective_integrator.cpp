@@ -353,9 +353,11 @@ float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBa
 }  // namespace
 
 // The value of a range's largest depth, for depths above b where m̂(b; d) may
-// rise again: a kFar largest hides the largest real depth, bounded by d_max's.
-inline float ProjectiveIntegrator::far_end(std::uint16_t hi, float a, float b) const {
-  if (hi != DepthRangeTable::kFar) return value_for_code(hi, a, b);
+// rise again: a kFar largest hides the largest real depth when there is one (lo
+// real), bounded then by d_max's.
+inline float ProjectiveIntegrator::far_end(std::uint16_t lo, std::uint16_t hi, float a,
+                                           float b) const {
+  if (hi != DepthRangeTable::kFar || lo == DepthRangeTable::kFar) return value_for_code(hi, a, b);
   return std::max(value_for_code(hi, a, b), value_for_code(max_real_code_, a, b));
 }
 
@@ -371,7 +373,8 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   if (static_cast<float>(hi) < a_code) return value_for_code(hi, a, b);
   // Above b, m̂(b; d) falls and (with a large Δd, d past 2b) rises again: both
   // ends of the range count.
-  if (static_cast<float>(lo) > b_code) return std::max(value_for_code(lo, a, b), far_end(hi, a, b));
+  if (static_cast<float>(lo) > b_code)
+    return std::max(value_for_code(lo, a, b), far_end(lo, hi, a, b));
   // lo <= b and hi >= a. A pixel with its depth inside [a, b] is the peak.
   if (static_cast<float>(lo) >= a_code || static_cast<float>(hi) <= b_code) return 1.0f;
   // lo < a <= b < hi. On a continuous surface (depths spread over less than
@@ -392,7 +395,7 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   if (sides.any_below) best = value_for_code(sides.below, a, b);
   if (sides.any_above) {
     // The depths above b run from the smallest found to hi, the range's largest.
-    best = std::max(best, std::max(value_for_code(sides.above, a, b), far_end(hi, a, b)));
+    best = std::max(best, std::max(value_for_code(sides.above, a, b), far_end(lo, hi, a, b)));
   }
   return best;
 }
@@ -468,8 +471,8 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code) continue;
-        float bound =
-            std::max(value_for_code(lo_code, cell.a, cell.b), far_end(hi_code, cell.a, cell.b));
+        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
+                               far_end(lo_code, hi_code, cell.a, cell.b));
         if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
             static_cast<float>(lo_code) * code_to_m_ <= cell.b)
           bound = 1.0f;

@@ -56,7 +56,7 @@ class ProjectiveIntegrator {
   float best_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, std::uint16_t lo,
                    std::uint16_t hi, float a, float b) const;
   float value_for_code(std::uint16_t code, float a, float b) const;
-  float far_end(std::uint16_t hi, float a, float b) const;
+  float far_end(std::uint16_t lo, std::uint16_t hi, float a, float b) const;
   // The reference rule over the pixels of the rectangle: each pixel's ray is
   // clipped to the cell (world box [lo, lo + s]) and m̂ maximised over that part.
   // `best` is a value known to be reached (a lower bound): parts of the footprint

@@ -52,6 +52,20 @@ std::uint16_t mark_sky(const std::uint16_t* __restrict raw_row, const std::uint8
   return static_cast<std::uint16_t>(count);
 }
 
+// The first raw depth whose float depth (raw * depth_to_m, as the reference path
+// computes it) reaches `limit` (>= when inclusive, > otherwise); 0x10000 when
+// none in 16 bits does.
+std::uint32_t first_raw_reaching(float limit, float depth_to_m, bool inclusive) {
+  const float estimate = std::clamp(limit / depth_to_m, 0.0f, 65536.0f);
+  std::uint32_t r = static_cast<std::uint32_t>(estimate);
+  r = r > 2 ? r - 2 : 0;
+  while (r <= 0xFFFF && (inclusive ? static_cast<float>(r) * depth_to_m < limit
+                                   : static_cast<float>(r) * depth_to_m <= limit)) {
+    ++r;
+  }
+  return r;
+}
+
 }  // namespace
 
 bool is_valid_pose(const Eigen::Isometry3d& pose) {
@@ -73,7 +87,18 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))),
-      sky_flags_(new std::uint8_t[static_cast<std::size_t>(std::max(camera.width, 1))]()) {}
+      sky_flags_(new std::uint8_t[static_cast<std::size_t>(std::max(camera.width, 1))]()) {
+  // d_min <= d <= d_max as raw codes, fixed for the run: the last raw values
+  // that are too near / not yet beyond d_max (16 bits; a limit past the code
+  // range never applies).
+  const auto depth_to_m = static_cast<float>(1.0 / camera.depth_scale);
+  const std::uint32_t raw_near =
+      first_raw_reaching(static_cast<float>(config.d_min_m), depth_to_m, true);
+  const std::uint32_t raw_far =
+      first_raw_reaching(static_cast<float>(config.d_max_m), depth_to_m, false);
+  raw_near_last_ = static_cast<std::uint16_t>(raw_near > 0 ? raw_near - 1 : 0);
+  raw_far_last_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(raw_far - 1, 0xFFFF));
+}
 
 CellIndex Mapper::cell_of(const Eigen::Vector3d& point) const {
   const Eigen::Vector3d c = point / config_.cell_size_m;
@@ -171,23 +196,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     // Level 0 of the range table: each pixel's depth code, kFar for free-only
     // rays, or missing. pixel_step is a reference-path option: every pixel is used.
     std::uint16_t* base = depths_.base();
-    // d_min <= d <= d_max as raw codes: the first and last raw values whose float
-    // depth passes (the same test as the reference path's, without a multiply).
-    const auto first_raw = [&](float limit, bool inclusive_above) {
-      std::uint32_t r = static_cast<std::uint32_t>(std::max(0.0f, limit / depth_to_m));
-      r = r > 2 ? r - 2 : 0;
-      while (r <= 0xFFFF && (inclusive_above ? static_cast<float>(r) * depth_to_m < limit
-                                             : static_cast<float>(r) * depth_to_m <= limit)) {
-        ++r;
-      }
-      return r;
-    };
-    const std::uint32_t raw_near = first_raw(d_min, true);  // raw < raw_near: too near
-    const std::uint32_t raw_far = first_raw(d_max, false);  // raw >= raw_far: beyond d_max
-    // As the last raw values that are too near / not too far, in 16 bits (a
-    // depth limit past the code range never applies).
-    const auto near_last = static_cast<std::uint16_t>(raw_near > 0 ? raw_near - 1 : 0);
-    const auto far_last = static_cast<std::uint16_t>(std::min<std::uint32_t>(raw_far - 1, 0xFFFF));
+    const std::uint16_t near_last = raw_near_last_, far_last = raw_far_last_;
     std::int32_t hit = 0, near = 0, far = 0, missing = 0;
     for (int v = 0; v < frame.height; ++v) {
       const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include "simd_u16.hpp"
 #include "zonemap/sensor_model.hpp"
@@ -12,10 +11,9 @@ namespace {
 
 constexpr float kNoRay = -2.0f;
 // Block classes (see classify_blocks).
-constexpr std::uint8_t kBlockMixed = 0;  // look at each cell
-constexpr std::uint8_t kBlockFree = 1;   // every ray near it is free across it
-constexpr std::uint8_t kBlockUnseen =
-    2;  // no ray reaches it (or no pixel sees it)  // below every m̂: no ray reaches the cell
+constexpr std::uint8_t kBlockMixed = 0;   // look at each cell
+constexpr std::uint8_t kBlockFree = 1;    // every ray near it is free across it
+constexpr std::uint8_t kBlockUnseen = 2;  // no ray reaches it (or no pixel sees it)
 
 // Pixel rays relative to the camera centre, in world axes: the ray of pixel
 // (u, v) is δ ↦ δ (w00 + u du + v dv) (δ: depth along the optical axis).
@@ -272,9 +270,8 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
 
 // The largest m̂ over four pixel rays' parts inside the box [lo, hi] (camera
 // centre at the origin; the ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)),
-// kNoRay when none crosses it. Same rule as the reference (each ray clipped to the box, then
-// value_for_code over the part inside), written
-// without branches.
+// kNoRay when none crosses it. Same rule as the reference (each ray clipped to
+// the box, then value_for_code over the part inside), written without branches.
 inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayBasis& basis, const float lo[3],
                        const float hi[3], float d_min, float d_max, float code_to_m,
                        float resolution_factor) {
@@ -308,7 +305,6 @@ inline float lanes_hmax(Lanes v) {
   return std::max(std::max(v[0], v[1]), std::max(v[2], v[3]));
 }
 
-// The rays of one row segment of the depth image, four at a time.
 // True when a code of row y, columns [x0, x0 + count) with count <= 8, lies in
 // [lo, hi] (one load of eight codes inside the image, lanes outside masked).
 bool row_has_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
@@ -333,6 +329,7 @@ bool row_has_code_in(const std::uint16_t* codes, int width, int x0, int count, i
   return simd::any_u16(reinterpret_cast<U16x8>(out_of_range == U16x8{}) & inside_row);
 }
 
+// The rays of one row segment of the depth image, four at a time.
 float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBasis& basis,
                const float lo[3], const float hi[3], float d_min, float d_max, float code_to_m,
                float resolution_factor) {
@@ -371,8 +368,6 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   const float a_code = a / code_to_m_;
   const float b_code = b / code_to_m_;
   if (static_cast<float>(hi) < a_code) return value_for_code(hi, a, b);
-  // Above b, m̂(b; d) falls and (with a large Δd, d past 2b) rises again: both
-  // ends of the range count.
   if (static_cast<float>(lo) > b_code)
     return std::max(value_for_code(lo, a, b), far_end(lo, hi, a, b));
   // lo <= b and hi >= a. A pixel with its depth inside [a, b] is the peak.
@@ -403,11 +398,11 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
 float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                         int y1, const CellRays& cell, float best,
                                         std::int64_t* rays) const {
-  // The cell's δ-support bounds every ray's part in it, so each tile of the
-  // footprint has a bound from its depth range. The first pass looks only at
-  // tiles whose bound reaches the sign sought (cell.enough_fixed) and stops at the
-  // first ray that does; when none does, the sign is lower and the second pass
-  // takes the exact maximum over the other tiles (those that can beat `best`).
+  // The first pass clips only the rays whose depth can reach the sign sought
+  // (cell.enough_fixed), found by tile and then by row, and stops at the first
+  // that does; when none does, the sign is lower and the second pass takes the
+  // exact maximum, each tile bounded by its depth range (the cell's δ-support
+  // bounds every ray's part in it).
   constexpr int kTileW = 8, kTileH = 4;
   // The depths (codes) whose rays can reach the sign sought in the cell: a
   // depth below a reaches it when d + Δd(d) (scaled by the rounding margin)
@@ -717,9 +712,9 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         if (value > -1.0f && upper_fixed >= 0) {
           // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
           // surface (or an unknown 0) where the rays that really cross the cell
-          // are all free. The ray through the cell's centre pixel gives a lower
-          // bound; when it rounds to U's sign the sign is settled, else the rays
-          // are looked at one by one, as the reference does, until one does.
+          // are all free. Probe rays give a lower bound; when it rounds to U's
+          // sign the sign is settled, else the rays are looked at one by one, as
+          // the reference does, until one does.
           const Eigen::Vector3f cell_lo =
               (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
           for (int k = 0; k < 3; ++k) {

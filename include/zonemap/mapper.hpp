@@ -94,6 +94,8 @@ class Mapper {
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
   std::unique_ptr<std::uint8_t[]> sky_flags_;  // one row of sky_row
+  std::uint16_t raw_near_last_ = 0;            // raw depths <= this are below d_min (0: none)
+  std::uint16_t raw_far_last_ = 0;             // raw depths above this are beyond d_max
 };
 
 }  // namespace zonemap

@@ -19,6 +19,7 @@
 
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "hal/os/realtime.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "test_support.hpp"
 #include "tools/daemon/vehicle_config.hpp"
@@ -146,6 +147,14 @@ std::string vehicle_yaml(const Flight& f, int mavlink_port, double replay_rate_h
 }
 
 }  // namespace
+
+// The executables refuse to start on a CPU without the instruction sets the build
+// assumes (ZONEMAP_X86_LEVEL); the machine that builds and tests them has them.
+TEST(Daemon, CpuRunsWhatTheBuildWasCompiledFor) {
+  std::string missing;
+  EXPECT_TRUE(zonemap::os::cpu_runs_this_build(&missing)) << missing;
+  EXPECT_TRUE(missing.empty());
+}
 
 TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
   zonemap::testing::TempDir dir;

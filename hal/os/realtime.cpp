@@ -12,6 +12,35 @@
 
 namespace zonemap::os {
 
+bool cpu_runs_this_build(std::string* missing) {
+#if defined(__x86_64__)
+  __builtin_cpu_init();
+  std::string absent;
+#if defined(__SSSE3__)
+  if (!__builtin_cpu_supports("ssse3")) absent += " ssse3";
+#endif
+#if defined(__SSE4_1__)
+  if (!__builtin_cpu_supports("sse4.1")) absent += " sse4.1";
+#endif
+#if defined(__SSE4_2__)
+  if (!__builtin_cpu_supports("sse4.2")) absent += " sse4.2";
+#endif
+#if defined(__POPCNT__)
+  if (!__builtin_cpu_supports("popcnt")) absent += " popcnt";
+#endif
+#if defined(__AVX2__)
+  if (!__builtin_cpu_supports("avx2")) absent += " avx2";
+#endif
+  if (!absent.empty()) {
+    *missing = "this CPU lacks" + absent +
+               ", which the build was compiled for: rebuild with -DZONEMAP_X86_LEVEL=x86-64";
+    return false;
+  }
+#endif
+  (void)missing;
+  return true;
+}
+
 bool lock_memory(std::string* warning) {
   if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) return true;
   *warning = std::string("mlockall failed (") + std::strerror(errno) +

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <string>
 
+#include "hal/os/realtime.hpp"
 #include "tools/daemon/daemon.hpp"
 
 namespace {
@@ -29,6 +30,10 @@ int usage() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (std::string cpu_problem; !zonemap::os::cpu_runs_this_build(&cpu_problem)) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], cpu_problem.c_str());
+    return 2;
+  }
   std::string config_path;
   bool check_only = false, quiet = false;
   for (int i = 1; i < argc; ++i) {

@@ -5,9 +5,14 @@
 #include <cstdlib>
 #include <string>
 
+#include "hal/os/realtime.hpp"
 #include "tools/replay/replay_run.hpp"
 
 int main(int argc, char** argv) {
+  if (std::string cpu_problem; !zonemap::os::cpu_runs_this_build(&cpu_problem)) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], cpu_problem.c_str());
+    return 2;
+  }
   zonemap::tools::ReplayOptions options;
   zonemap::runtime::PipelineOptions pipeline;  // flags only: lossless, rate, mlock
   bool pipelined = false;

@@ -8,9 +8,14 @@
 #include <fstream>
 #include <string>
 
+#include "hal/os/realtime.hpp"
 #include "tools/soak/soak.hpp"
 
 int main(int argc, char** argv) {
+  if (std::string cpu_problem; !zonemap::os::cpu_runs_this_build(&cpu_problem)) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], cpu_problem.c_str());
+    return 2;
+  }
   zonemap::soak::SoakOptions options;
   std::string out = "out/soak";
   for (int i = 1; i < argc; ++i) {

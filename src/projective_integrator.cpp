@@ -305,28 +305,35 @@ inline float lanes_hmax(Lanes v) {
   return std::max(std::max(v[0], v[1]), std::max(v[2], v[3]));
 }
 
-// True when a code of row y, columns [x0, x0 + count) with count <= 8, lies in
-// [lo, hi] (one load of eight codes inside the image, lanes outside masked).
-bool row_has_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
-                     std::uint16_t lo, std::uint16_t hi) {
+// Which halves of row y's columns [x0, x0 + count) (count <= 8) hold a code in
+// [lo, hi]: bit 0 for columns x0..x0+3, bit 1 for x0+4.. (one load of eight codes
+// inside the image, lanes outside masked).
+int row_halves_with_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
+                            std::uint16_t lo, std::uint16_t hi) {
   using simd::U16x8;
   if (width < 8) {  // an image narrower than one load
+    int halves = 0;
     for (int x = x0; x < x0 + count; ++x) {
       const std::uint16_t c = codes[static_cast<std::size_t>(y) * width + x];
-      if (c >= lo && c <= hi) return true;
+      if (c >= lo && c <= hi) halves |= x - x0 < 4 ? 1 : 2;
     }
-    return false;
+    return halves;
   }
   const int start = std::min(x0, width - 8);
   const U16x8 c = simd::load_u16(codes + static_cast<std::size_t>(y) * width + start);
   const U16x8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
   const auto first = static_cast<std::uint16_t>(x0 - start);
-  const auto end = static_cast<std::uint16_t>(x0 - start + count);
-  const U16x8 inside_row =
-      reinterpret_cast<U16x8>((lane >= simd::splat_u16(first)) & (lane < simd::splat_u16(end)));
+  const auto middle = static_cast<std::uint16_t>(first + std::min(count, 4));
+  const auto end = static_cast<std::uint16_t>(first + count);
   const U16x8 out_of_range =
       simd::saturating_sub(simd::splat_u16(lo), c) | simd::saturating_sub(c, simd::splat_u16(hi));
-  return simd::any_u16(reinterpret_cast<U16x8>(out_of_range == U16x8{}) & inside_row);
+  const auto in_range = reinterpret_cast<U16x8>(out_of_range == U16x8{});
+  const auto first_half =
+      reinterpret_cast<U16x8>((lane >= simd::splat_u16(first)) & (lane < simd::splat_u16(middle)));
+  const auto second_half =
+      reinterpret_cast<U16x8>((lane >= simd::splat_u16(middle)) & (lane < simd::splat_u16(end)));
+  return (simd::any_u16(in_range & first_half) ? 1 : 0) |
+         (simd::any_u16(in_range & second_half) ? 2 : 0);
 }
 
 // The rays of one row segment of the depth image, four at a time.
@@ -429,9 +436,18 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
   // only the rows holding such a depth (one vector compare per row), until a ray
   // reaches the sign.
+  // Tiles from the middle out: the rays near the footprint's centre cross the
+  // cell (its silhouette leaves the rectangle's corners empty).
   bool passed_over = false;  // some ray was not clipped in pass 1
-  for (int ty = y0; ty <= y1; ty += kTileH) {
-    for (int tx = x0; tx <= x1; tx += kTileW) {
+  const int tile_rows = (y1 - y0) / kTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
+  const auto middle_out = [](int i, int n) {  // m, m + 1, m - 1, m + 2, ... covers [0, n)
+    const int offset = (i + 1) / 2;
+    return (n - 1) / 2 + ((i & 1) ? offset : -offset);
+  };
+  for (int row_i = 0; row_i < tile_rows; ++row_i) {
+    const int ty = y0 + kTileH * middle_out(row_i, tile_rows);
+    for (int col_i = 0; col_i < tile_cols; ++col_i) {
+      const int tx = x0 + kTileW * middle_out(col_i, tile_cols);
       const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
       std::uint16_t lo_code = 0, hi_code = 0;
       depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
@@ -440,13 +456,15 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
         passed_over = true;
         continue;
       }
+      const int count = ex - tx + 1;
       for (int v = ty; v <= ey; ++v) {
-        if (!row_has_code_in(depths.codes(), depths.width(), tx, ex - tx + 1, v, sign_lo,
-                             sign_hi)) {
-          passed_over = true;
-          continue;
-        }
-        scan_row(tx, v, ex - tx + 1);
+        // Only the halves of the row (four rays each) holding such a depth.
+        const int halves =
+            row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v, sign_lo, sign_hi);
+        if (halves != (count > 4 ? 3 : 1)) passed_over = true;
+        if (halves == 0) continue;
+        if (halves & 1) scan_row(tx, v, std::min(count, 4));
+        if (halves & 2) scan_row(tx + 4, v, count - 4);
         if (best >= -1.0f && to_fixed(best) >= cell.enough_fixed) {
           *rays += clipped;
           return best;

@@ -38,14 +38,17 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
       cells_(new LocalCell[cell_count_]()),
       line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]()),
       saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]()),
-      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]()) {
+      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]()),
+      row_live_(new std::uint8_t[static_cast<std::size_t>(dims[1]) *
+                                 static_cast<std::size_t>(dims[2])]()) {
   reset(CellIndex{});
 }
 
 std::size_t LocalGrid::reserved_bytes() const {
   const std::size_t row = static_cast<std::size_t>(dims_[0]);
   return cell_count_ * sizeof(LocalCell) + (row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
-         row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t);
+         row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t) +
+         static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]);
 }
 
 void LocalGrid::reset(const CellIndex& origin) {
@@ -165,7 +168,13 @@ void LocalGrid::finish(int blur_radius) {
   for (int z = active_lo_[2]; z <= active_hi_[2]; ++z)
     for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
       LocalCell* row = cells_.get() + index(active_lo_[0], y, z);
-      for (int x = 0; x < n; ++x) row[x] = row[x] == kUntouched ? LocalCell{0} : row[x];
+      LocalCell any = 0;
+      for (int x = 0; x < n; ++x) {
+        const LocalCell v = row[x] == kUntouched ? LocalCell{0} : row[x];
+        row[x] = v;
+        any = static_cast<LocalCell>(any | v);
+      }
+      *live_flag(y, z) = any != 0 ? 1 : 0;
     }
   if (radius == 0) return;
   blur_x(radius);
@@ -185,6 +194,7 @@ void LocalGrid::blur_x(int radius) {
     padded[n + 1] = 0;
     for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
       for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+        if (!*live_flag(y, z)) continue;  // all 0: stays 0
         LocalCell* row = cells_.get() + index(x0, y, z);
         std::copy_n(row, n, padded + 1);
         blur_row3(padded, padded + 1, padded + 2, row, n);
@@ -194,6 +204,7 @@ void LocalGrid::blur_x(int radius) {
   }
   for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
     for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+      if (!*live_flag(y, z)) continue;  // all 0: stays 0
       LocalCell* row = cells_.get() + index(x0, y, z);
       // Outside the active region every cell is unknown (0): zero padding is exact.
       for (int i = 0; i < radius; ++i) {
@@ -228,20 +239,32 @@ void LocalGrid::blur_across(int axis, int radius) {
     auto row_at = [&](int c) {
       return axis == 1 ? cells_.get() + index(x0, c, o) : cells_.get() + index(x0, o, c);
     };
+    auto live_at = [&](int c) { return axis == 1 ? live_flag(c, o) : live_flag(o, c); };
     if (radius == 1) {
       // The default kernel (1 2 1) in one pass per row: the previous row's
       // original and this row's are kept in two saved rows, the next row is
-      // still untouched; rows outside the region are unknown (0).
+      // still untouched; rows outside the region are unknown (0). A row whose
+      // three inputs are all 0 stays 0 and is passed over; the flags follow.
       LocalCell* saved[2] = {saved_.get(), saved_.get() + n};
       LocalCell* zeros = saved_.get() + 2 * static_cast<std::size_t>(n);
-      std::fill_n(saved[1], n, LocalCell{0});  // the row before lo
-      std::fill_n(zeros, n, LocalCell{0});     // the row after hi
+      std::fill_n(zeros, n, LocalCell{0});
+      bool prev_live = false;  // the original flag of row c - 1
       for (int c = lo; c <= hi; ++c) {
-        LocalCell* dst = row_at(c);
-        const LocalCell* prev = saved[(c - lo + 1) & 1];
-        LocalCell* cur = saved[(c - lo) & 1];
-        std::copy_n(dst, n, cur);
-        blur_row3(prev, cur, c < hi ? row_at(c + 1) : zeros, dst, n);
+        std::uint8_t* flag = live_at(c);
+        const bool cur_live = *flag != 0;
+        const bool next_live = c < hi && *live_at(c + 1) != 0;
+        *flag = prev_live || cur_live || next_live ? 1 : 0;
+        if (*flag) {
+          LocalCell* dst = row_at(c);
+          const LocalCell* prev = prev_live ? saved[(c - lo + 1) & 1] : zeros;
+          const LocalCell* cur = zeros;
+          if (cur_live) {
+            std::copy_n(dst, n, saved[(c - lo) & 1]);
+            cur = saved[(c - lo) & 1];
+          }
+          blur_row3(prev, cur, next_live ? row_at(c + 1) : zeros, dst, n);
+        }
+        prev_live = cur_live;
       }
       continue;
     }
@@ -262,6 +285,7 @@ void LocalGrid::blur_across(int axis, int radius) {
       std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
       for (int x = 0; x < n; ++x)
         dst[x] = static_cast<LocalCell>(symmetric_shift(sum[x], 2 * radius));
+      *live_at(c) = 1;  // this kernel does not skip: every row may hold values
     }
   }
 }

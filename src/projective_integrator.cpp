@@ -684,20 +684,18 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         // the centre pixel crossing it settles the cell: free. When every such
         // ray ends before the cell, nothing reaches it.
         const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
-        bool centre_ray = false;
-        if (quick) {
+        const auto centre_ray = [&] {  // the centre pixel's ray is real and crosses the cell
           const double inv_z = 1.0 / zc;
           const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-          centre_ray =
-              uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
-              depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
-                             static_cast<std::size_t>(uc + 0.5)] != DepthRangeTable::kMissing;
-          if (centre_ray && block == kBlockFree) {
-            ++stats.cells_evaluated;
-            ++stats.cells_block_free;
-            grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
-            continue;
-          }
+          return uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
+                 depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
+                                static_cast<std::size_t>(uc + 0.5)] != DepthRangeTable::kMissing;
+        };
+        if (block == kBlockFree && quick && centre_ray()) {
+          ++stats.cells_evaluated;
+          ++stats.cells_block_free;
+          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+          continue;
         }
         // The image box of the cube's eight projected corners: the pixels whose
         // rays can cross the cell.
@@ -712,7 +710,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           ++stats.cells_hidden;  // every ray ends before the cell
           continue;
         }
-        if (centre_ray && free_across(lo_code, hi_code, static_cast<float>(b))) {
+        if (quick && free_across(lo_code, hi_code, static_cast<float>(b)) && centre_ray()) {
           ++stats.cells_evaluated;
           ++stats.cells_box_free;
           grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));

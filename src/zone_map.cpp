@@ -155,6 +155,7 @@ void ZoneMap::fuse(const LocalGrid& local) {
     const int row = x1 - x0;
     for (int z = z0; z < z1; ++z) {
       for (int y = y0; y < y1; ++y) {
+        if (!local.row_may_hold_values(y - origin.y, z - origin.z)) continue;  // all 0
         const LocalCell* src =
             local.data() + local.index(x0 - origin.x, y - origin.y, z - origin.z);
         FusedCell* dst =

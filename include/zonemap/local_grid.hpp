@@ -49,6 +49,13 @@ class LocalGrid {
   const std::array<int, 3>& active_lo() const { return active_lo_; }
   const std::array<int, 3>& active_hi() const { return active_hi_; }
 
+  // After finish(): false when every cell of row (y, z) in the active region is
+  // 0, so that fusion can pass it over (true may still be an all-zero row).
+  bool row_may_hold_values(int y, int z) const {
+    return row_live_[static_cast<std::size_t>(y) +
+                     static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z)] != 0;
+  }
+
   // A cell's value after finish(); cells no frame touched read as unknown (0).
   LocalCell at(int x, int y, int z) const {
     const LocalCell v = cells_[index(x, y, z)];
@@ -78,6 +85,13 @@ class LocalGrid {
   std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
   std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)
   std::unique_ptr<std::int16_t[]> sum_;   // one x row of partial sums
+  // One flag per x row (y, z): may hold a non-zero cell. Most rows of the active
+  // box lie outside the frustum or behind surfaces: the blur and fusion skip them.
+  std::unique_ptr<std::uint8_t[]> row_live_;
+  std::uint8_t* live_flag(int y, int z) {
+    return row_live_.get() + static_cast<std::size_t>(y) +
+           static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z);
+  }
   std::array<int, 3> touched_lo_;
   std::array<int, 3> touched_hi_;
   std::array<int, 3> active_lo_;

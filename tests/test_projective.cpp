@@ -101,11 +101,15 @@ TEST(DepthRangeTable, RangesMatchBruteForce) {
       for (int x = 0; x < std::min(width, 15); ++x)
         table.base()[y * width + x] = DepthRangeTable::kMissing;
     table.build();
-    for (int k = 0; k < 3000; ++k) {
+    for (int k = 0; k < 6000; ++k) {
       const auto pick = [&](int n) { return static_cast<int>(rng.uniform() * n); };
       int x0 = pick(width), x1 = pick(width), y0 = pick(height), y1 = pick(height);
       if (x0 > x1) std::swap(x0, x1);
       if (y0 > y1) std::swap(y0, y1);
+      if (k % 2 == 1) {  // small and elongated rectangles, the footprints' sizes
+        x1 = std::min(width - 1, x0 + pick(40));
+        y1 = std::min(height - 1, y0 + pick(k % 4 == 1 ? 12 : 40));
+      }
       std::uint16_t lo_expected = DepthRangeTable::kMissing, hi_expected = 0;
       for (int y = y0; y <= y1; ++y)
         for (int x = x0; x <= x1; ++x) {

@@ -53,8 +53,31 @@ class DepthRangeTable {
       const std::size_t dx = 2 * static_cast<std::size_t>(x1 - side + 1 - x0);
       const std::size_t dy = static_cast<std::size_t>(y1 - side + 1 - y0) * row;
       *lo = std::min(std::min(p00[0], p00[dx]), std::min(p00[dy], p00[dy + dx]));
-      *hi = static_cast<std::uint16_t>(
-          0xFFFF - std::min(std::min(p00[1], p00[dx + 1]), std::min(p00[dy + 1], p00[dy + dx + 1])));
+      *hi = static_cast<std::uint16_t>(0xFFFF - std::min(std::min(p00[1], p00[dx + 1]),
+                                                         std::min(p00[dy + 1], p00[dy + dx + 1])));
+      return;
+    }
+    if (l > 0 && w <= 3 << l && h <= 3 << l) {
+      // Elongated footprints (and tiles cut at a footprint's edge): three squares
+      // per axis, first, middle and last (coinciding when two suffice).
+      const int side = 1 << l;
+      const std::uint16_t* table = pairs_[static_cast<std::size_t>(l)];
+      const std::size_t row = 2 * static_cast<std::size_t>(width_);
+      const std::size_t xs[3] = {2 * static_cast<std::size_t>(x0),
+                                 2 * static_cast<std::size_t>(std::min(x0 + side, x1 - side + 1)),
+                                 2 * static_cast<std::size_t>(x1 - side + 1)};
+      const std::size_t ys[3] = {static_cast<std::size_t>(y0) * row,
+                                 static_cast<std::size_t>(std::min(y0 + side, y1 - side + 1)) * row,
+                                 static_cast<std::size_t>(y1 - side + 1) * row};
+      std::uint16_t mn = 0xFFFF, inv_mx = 0xFFFF;
+      for (const std::size_t y : ys) {
+        for (const std::size_t x : xs) {
+          mn = std::min(mn, table[y + x]);
+          inv_mx = std::min(inv_mx, table[y + x + 1]);
+        }
+      }
+      *lo = mn;
+      *hi = static_cast<std::uint16_t>(0xFFFF - inv_mx);
       return;
     }
     range_slow(x0, y0, x1, y1, l, lo, hi);

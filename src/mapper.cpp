@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+
+#include "simd_u16.hpp"
 
 namespace zonemap {
 
@@ -13,25 +16,51 @@ struct RowCounts {
 };
 
 // Raw depths to range-table codes: missing (0) and too near (raw <= near_last)
-// to kMissing, beyond d_max (raw > far_last) to kFar. 16-bit arithmetic without
-// branches, so that the loop runs eight pixels at a time.
+// to kMissing, beyond d_max (raw > far_last) to kFar; the row's counts on the
+// way. Eight pixels at a time (the counts in per-lane 16-bit counters, at most
+// width / 8 each), the rest one by one.
 RowCounts convert_row(const std::uint16_t* __restrict raw_row, std::uint16_t* __restrict out,
                       int width, std::uint16_t near_last, std::uint16_t far_last) {
-  for (int u = 0; u < width; ++u) {
-    const std::uint16_t raw = raw_row[u];
+  using simd::U16x8;
+  const auto convert = [&](auto raw, auto one, auto max_code, auto near_v, auto far_v,
+                           auto missing_code, auto far_code) {
     // raw - 1 wraps a missing 0 to 0xFFFF: never near.
-    const bool is_ignored = static_cast<std::uint16_t>(raw - 1) >= 0xFFFF ||
-                            static_cast<std::uint16_t>(raw - 1) < near_last;
-    const std::uint16_t code =
-        raw < DepthRangeTable::kMaxDepthCode ? raw : DepthRangeTable::kMaxDepthCode;
-    out[u] = is_ignored ? DepthRangeTable::kMissing : raw > far_last ? DepthRangeTable::kFar : code;
+    const auto raw_minus_one = static_cast<decltype(raw)>(raw - one);
+    const auto is_ignored = (raw_minus_one == missing_code) | (raw_minus_one < near_v);
+    const auto code = raw < max_code ? raw : max_code;
+    return is_ignored ? missing_code : (raw > far_v ? far_code : code);
+  };
+  U16x8 missing_lanes{}, far_lanes{}, ignored_lanes{};
+  int u = 0;
+  for (; u + 8 <= width; u += 8) {
+    const U16x8 raw = simd::load_u16(raw_row + u);
+    const U16x8 code =
+        convert(raw, simd::splat_u16(1), simd::splat_u16(DepthRangeTable::kMaxDepthCode),
+                simd::splat_u16(near_last), simd::splat_u16(far_last),
+                simd::splat_u16(DepthRangeTable::kMissing), simd::splat_u16(DepthRangeTable::kFar));
+    std::memcpy(out + u, &code, sizeof code);
+    // Comparisons give all-ones (0xFFFF) lanes: subtracting them counts.
+    missing_lanes -= reinterpret_cast<U16x8>(raw == U16x8{});
+    far_lanes -= reinterpret_cast<U16x8>(code == simd::splat_u16(DepthRangeTable::kFar));
+    ignored_lanes -= reinterpret_cast<U16x8>(code == simd::splat_u16(DepthRangeTable::kMissing));
   }
-  // The counts in separate passes: each is a plain vectorisable count.
-  RowCounts counts;
   int missing = 0, far = 0, ignored = 0;
-  for (int u = 0; u < width; ++u) missing += raw_row[u] == 0 ? 1 : 0;
-  for (int u = 0; u < width; ++u) far += out[u] == DepthRangeTable::kFar ? 1 : 0;
-  for (int u = 0; u < width; ++u) ignored += out[u] == DepthRangeTable::kMissing ? 1 : 0;
+  for (int i = 0; i < 8; ++i) {
+    missing += missing_lanes[i];
+    far += far_lanes[i];
+    ignored += ignored_lanes[i];
+  }
+  for (; u < width; ++u) {
+    const std::uint16_t raw = raw_row[u];
+    const std::uint16_t code =
+        convert(raw, std::uint16_t{1}, DepthRangeTable::kMaxDepthCode, near_last, far_last,
+                DepthRangeTable::kMissing, DepthRangeTable::kFar);
+    out[u] = code;
+    missing += raw == 0 ? 1 : 0;
+    far += code == DepthRangeTable::kFar ? 1 : 0;
+    ignored += code == DepthRangeTable::kMissing ? 1 : 0;
+  }
+  RowCounts counts;
   counts.missing = static_cast<std::uint16_t>(missing);
   counts.near = static_cast<std::uint16_t>(ignored - missing);
   counts.far = static_cast<std::uint16_t>(far);

@@ -248,6 +248,38 @@ TEST(Mapper, SkyFilterTurnsBrightFlatMissingDepthIntoFreeSpace) {
   EXPECT_EQ(blind.integrate({depth.data(), nullptr, 16, 12}, looking_along_x()).pixels_sky, 0);
 }
 
+TEST(Mapper, PixelCountsForAnyImageWidth) {
+  // Missing, too near, beyond d_max and real depths in a repeating pattern, for
+  // widths that fill whole vector loads, leave a tail, or are narrower than one;
+  // both integration paths count alike.
+  for (const int width : {16, 13, 5}) {
+    for (const auto integration :
+         {MapConfig::Integration::kProjective, MapConfig::Integration::kReference}) {
+      MapConfig config = small_config();
+      config.zone_cells = {20, 20, 20};
+      config.integration = integration;
+      CameraModel camera = tiny_camera();
+      camera.width = width;
+      camera.cx = 0.5 * (width - 1);
+      Mapper mapper(config, camera);
+      const std::uint16_t pattern[4] = {0, 500, 15000, 3000};  // missing, near, far, hit
+      std::vector<std::uint16_t> depth(static_cast<std::size_t>(width) * 12);
+      int expected[4] = {};
+      for (std::size_t i = 0; i < depth.size(); ++i) {
+        const std::size_t kind = (i * 7 + i / 3) % 4;
+        depth[i] = pattern[kind];
+        ++expected[kind];
+      }
+      const FrameReport report =
+          mapper.integrate({depth.data(), nullptr, width, 12}, looking_along_x());
+      EXPECT_EQ(report.pixels_missing, expected[0]) << width;
+      EXPECT_EQ(report.pixels_too_near, expected[1]) << width;
+      EXPECT_EQ(report.rays_free, expected[2]) << width;
+      EXPECT_EQ(report.rays_hit, expected[3]) << width;
+    }
+  }
+}
+
 TEST(Mapper, DepthBeyondDmaxGivesFreeSpaceUpToDmaxOnly) {
   MapConfig config = small_config();
   config.zone_cells = {40, 20, 20};

@@ -31,19 +31,22 @@ LocalCell quantize(float units) {
 struct Frustum {
   Eigen::Vector3d normals[6];
   double offsets[6];
+  double inv_nx[6];  // 1 / n.x (0 for planes parallel to x), set by make_frustum
 
   // The indices i of the centres (base_x + i * step, wy, wz), 0 <= i < count,
-  // inside every half-space: [*lo, *hi]; false when there are none.
-  bool row(double wy, double wz, double base_x, double step, int count, int* lo, int* hi) const {
+  // inside every half-space: [*lo, *hi]; false when there are none. (Once per
+  // row of cells: products with reciprocals, no divisions.)
+  bool row(double wy, double wz, double base_x, double inv_step, int count, int* lo,
+           int* hi) const {
     double x_lo = 0.0, x_hi = count - 1;
     for (int i = 0; i < 6 && x_lo <= x_hi; ++i) {
       const Eigen::Vector3d& n = normals[i];
       const double rest = n.y() * wy + n.z() * wz - offsets[i];  // n.x * X + rest >= 0
-      if (std::fabs(n.x()) < 1e-12) {
+      if (inv_nx[i] == 0.0) {
         if (rest < 0.0) x_hi = -1.0;
         continue;
       }
-      const double bound = (-rest / n.x() - base_x) / step;  // in indices
+      const double bound = (-rest * inv_nx[i] - base_x) * inv_step;  // in indices
       if (n.x() > 0.0) {
         x_lo = std::max(x_lo, std::ceil(bound));
       } else {
@@ -67,7 +70,8 @@ Frustum make_frustum(const Eigen::Isometry3d& world_T_camera, const CameraModel&
   const double kl = (0.0 - camera.cx) / camera.fx, kr = (camera.width - 1 - camera.cx) / camera.fx;
   const double kt = (0.0 - camera.cy) / camera.fy, kb = (camera.height - 1 - camera.cy) / camera.fy;
   Frustum f{{{1, 0, -kl}, {-1, 0, kr}, {0, 1, -kt}, {0, -1, kb}, {0, 0, 1}, {0, 0, -1}},
-            {0, 0, 0, 0, d_min - half_z, -(d_max + half_z)}};
+            {0, 0, 0, 0, d_min - half_z, -(d_max + half_z)},
+            {}};
   for (int i = 0; i < 6; ++i) {
     const double len = f.normals[i].norm();
     f.normals[i] /= len;
@@ -76,6 +80,7 @@ Frustum make_frustum(const Eigen::Isometry3d& world_T_camera, const CameraModel&
     // To the world frame: n_c . R^T (p - t) >= c  <=>  (R n_c) . p >= c + (R n_c) . t
     f.normals[i] = r * f.normals[i];
     f.offsets[i] += f.normals[i].dot(t);
+    f.inv_nx[i] = std::fabs(f.normals[i].x()) < 1e-12 ? 0.0 : 1.0 / f.normals[i].x();
   }
   return f;
 }
@@ -548,7 +553,7 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
     for (int by = 0; by < blocks_[1]; ++by) {
       const double wy = base.y() + by * side, wz = base.z() + bz * side;
       int bx_lo = 0, bx_hi = -1;
-      if (!frustum.row(wy, wz, base.x(), side, blocks_[0], &bx_lo, &bx_hi)) continue;
+      if (!frustum.row(wy, wz, base.x(), 1.0 / side, blocks_[0], &bx_lo, &bx_hi)) continue;
       std::size_t i = static_cast<std::size_t>(bx_lo) +
                       static_cast<std::size_t>(blocks_[0]) *
                           (static_cast<std::size_t>(by) +
@@ -644,6 +649,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   const auto fx_f = static_cast<float>(fx), fy_f = static_cast<float>(fy);
   const auto cx_f = static_cast<float>(cx), cy_f = static_cast<float>(cy);
 
+  const double inv_s = 1.0 / s;
   ProjectiveStats stats;
   int touched_lo[3] = {dims[0], dims[1], dims[2]};
   int touched_hi[3] = {-1, -1, -1};
@@ -651,7 +657,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
     for (int y = 0; y < dims[1]; ++y) {
       const double wy = base.y() + y * s, wz = base.z() + z * s;
       int xa = 0, xb = -1;
-      if (!frustum.row(wy, wz, base.x(), s, dims[0], &xa, &xb)) continue;
+      if (!frustum.row(wy, wz, base.x(), inv_s, dims[0], &xa, &xb)) continue;
       touched_lo[0] = std::min(touched_lo[0], xa);
       touched_hi[0] = std::max(touched_hi[0], xb);
       touched_lo[1] = std::min(touched_lo[1], y);
@@ -758,13 +764,15 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
                          splat(static_cast<float>(px1)));
           pv = lanes_min(lanes_max(pv, splat(static_cast<float>(py0))),
                          splat(static_cast<float>(py1)));
-          Lanes probe_code;
-          for (int i = 0; i < 4; ++i) {
-            const int u = static_cast<int>(pu[i] + 0.5f), v = static_cast<int>(pv[i] + 0.5f);
-            pu[i] = static_cast<float>(u);
-            pv[i] = static_cast<float>(v);
-            probe_code[i] = static_cast<float>(depths.codes()[static_cast<std::size_t>(v) * w + u]);
-          }
+          using Ints = std::int32_t __attribute__((vector_size(16)));
+          const Ints pixel_u = __builtin_convertvector(pu + 0.5f, Ints);  // >= 0: truncation
+          const Ints pixel_v = __builtin_convertvector(pv + 0.5f, Ints);  // rounds
+          pu = __builtin_convertvector(pixel_u, Lanes);
+          pv = __builtin_convertvector(pixel_v, Lanes);
+          const Ints at = pixel_v * w + pixel_u;
+          const std::uint16_t* codes = depths.codes();
+          const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
+          const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
           float lower = lanes_hmax(rays_best(pu, pv, probe_code, cell.basis, cell.lo, cell.hi,
                                              d_min_, d_max_, code_to_m_, resolution_factor_));
           if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {

@@ -68,8 +68,7 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
       line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]()),
       saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]()),
       sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]()),
-      row_live_(new std::uint8_t[static_cast<std::size_t>(dims[1]) *
-                                 static_cast<std::size_t>(dims[2])]()) {
+      spans_(new RowSpan[static_cast<std::size_t>(dims[1]) * static_cast<std::size_t>(dims[2])]()) {
   reset(CellIndex{});
 }
 
@@ -77,7 +76,7 @@ std::size_t LocalGrid::reserved_bytes() const {
   const std::size_t row = static_cast<std::size_t>(dims_[0]);
   return cell_count_ * sizeof(LocalCell) + (row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
          row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t) +
-         static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]);
+         static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]) * sizeof(RowSpan);
 }
 
 void LocalGrid::reset(const CellIndex& origin) {
@@ -203,7 +202,14 @@ void LocalGrid::finish(int blur_radius) {
         row[x] = v;
         any = static_cast<LocalCell>(any | v);
       }
-      *live_flag(y, z) = any != 0 ? 1 : 0;
+      RowSpan& span = spans_[span_index(y, z)];
+      span = RowSpan{};
+      if (any == 0) continue;
+      int first = 0, last = n - 1;
+      while (row[first] == 0) ++first;  // stops: some cell is non-zero
+      while (row[last] == 0) --last;
+      span.lo = active_lo_[0] + first;
+      span.hi = active_lo_[0] + last;
     }
   if (radius == 0) return;
   blur_x(radius);
@@ -218,22 +224,29 @@ void LocalGrid::blur_x(int radius) {
   if (radius == 1) {
     // The default kernel: the row's original, padded with unknown (0) on both
     // sides, in the saved rows; one vectorised pass writes the row.
+    // Only the row's span grown by one (outside it every input is 0).
     LocalCell* padded = saved_.get();
     padded[0] = 0;
-    padded[n + 1] = 0;
     for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
       for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
-        if (!*live_flag(y, z)) continue;  // all 0: stays 0
-        LocalCell* row = cells_.get() + index(x0, y, z);
-        std::copy_n(row, n, padded + 1);
-        blur_row3(padded, padded + 1, padded + 2, row, n);
+        RowSpan& span = spans_[span_index(y, z)];
+        if (span.lo > span.hi) continue;  // all 0: stays 0
+        span.lo = std::max(span.lo - 1, x0);
+        span.hi = std::min(span.hi + 1, active_hi_[0]);
+        const int count = span.hi - span.lo + 1;
+        LocalCell* row = cells_.get() + index(span.lo, y, z);
+        std::copy_n(row, count, padded + 1);
+        padded[count + 1] = 0;
+        blur_row3(padded, padded + 1, padded + 2, row, count);
       }
     }
     return;
   }
   for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
     for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
-      if (!*live_flag(y, z)) continue;  // all 0: stays 0
+      RowSpan& span = spans_[span_index(y, z)];
+      if (span.lo > span.hi) continue;    // all 0: stays 0
+      span = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
       LocalCell* row = cells_.get() + index(x0, y, z);
       // Outside the active region every cell is unknown (0): zero padding is exact.
       for (int i = 0; i < radius; ++i) {
@@ -263,37 +276,62 @@ void LocalGrid::blur_across(int axis, int radius) {
   static constexpr int kWeights[3][5] = {{1, 0, 0, 0, 0}, {1, 2, 1, 0, 0}, {1, 4, 6, 4, 1}};
   const int* weight = kWeights[radius];
   const int ring = 2 * radius + 1;
+  // Radius 1: the two saved rows and the row of zeros start at 0; the saved rows
+  // are kept 0 outside the span last copied into each.
+  RowSpan saved_span[2];
+  if (radius == 1) std::fill_n(saved_.get(), 3 * static_cast<std::size_t>(n), LocalCell{0});
   for (int o = active_lo_[static_cast<std::size_t>(other)];
        o <= active_hi_[static_cast<std::size_t>(other)]; ++o) {
     auto row_at = [&](int c) {
       return axis == 1 ? cells_.get() + index(x0, c, o) : cells_.get() + index(x0, o, c);
     };
-    auto live_at = [&](int c) { return axis == 1 ? live_flag(c, o) : live_flag(o, c); };
+    auto span_at = [&](int c) -> RowSpan& {
+      return spans_[axis == 1 ? span_index(c, o) : span_index(o, c)];
+    };
     if (radius == 1) {
       // The default kernel (1 2 1) in one pass per row: the previous row's
-      // original and this row's are kept in two saved rows, the next row is
-      // still untouched; rows outside the region are unknown (0). A row whose
-      // three inputs are all 0 stays 0 and is passed over; the flags follow.
-      LocalCell* saved[2] = {saved_.get(), saved_.get() + n};
+      // original and this row's are kept in two saved rows (0 outside the span
+      // copied into them), the next row is still untouched; rows outside the
+      // region are unknown (0). Only the union of the three rows' spans can be
+      // non-zero: the rest of the row stays 0, and the spans follow.
       LocalCell* zeros = saved_.get() + 2 * static_cast<std::size_t>(n);
-      std::fill_n(zeros, n, LocalCell{0});
-      bool prev_live = false;  // the original flag of row c - 1
-      for (int c = lo; c <= hi; ++c) {
-        std::uint8_t* flag = live_at(c);
-        const bool cur_live = *flag != 0;
-        const bool next_live = c < hi && *live_at(c + 1) != 0;
-        *flag = prev_live || cur_live || next_live ? 1 : 0;
-        if (*flag) {
-          LocalCell* dst = row_at(c);
-          const LocalCell* prev = prev_live ? saved[(c - lo + 1) & 1] : zeros;
-          const LocalCell* cur = zeros;
-          if (cur_live) {
-            std::copy_n(dst, n, saved[(c - lo) & 1]);
-            cur = saved[(c - lo) & 1];
-          }
-          blur_row3(prev, cur, next_live ? row_at(c + 1) : zeros, dst, n);
+      for (int b = 0; b < 2; ++b) {  // the last sheet's rows: back to 0
+        if (saved_span[b].lo <= saved_span[b].hi) {
+          std::fill_n(saved_.get() + static_cast<std::size_t>(b) * n + (saved_span[b].lo - x0),
+                      saved_span[b].hi - saved_span[b].lo + 1, LocalCell{0});
         }
-        prev_live = cur_live;
+        saved_span[b] = RowSpan{};
+      }
+      RowSpan prev_span;  // the original span of row c - 1
+      for (int c = lo; c <= hi; ++c) {
+        RowSpan& span = span_at(c);
+        const RowSpan cur_span = span;
+        const RowSpan next_span = c < hi ? span_at(c + 1) : RowSpan{};
+        RowSpan out{std::numeric_limits<std::int32_t>::max(), -1};
+        for (const RowSpan& part : {prev_span, cur_span, next_span}) {
+          if (part.lo > part.hi) continue;
+          out.lo = std::min(out.lo, part.lo);
+          out.hi = std::max(out.hi, part.hi);
+        }
+        const int k = (c - lo) & 1;
+        // saved[k] held row c - 2: back to 0, then this row's original span.
+        LocalCell* cur = saved_.get() + static_cast<std::size_t>(k) * n;
+        if (saved_span[k].lo <= saved_span[k].hi) {
+          std::fill_n(cur + (saved_span[k].lo - x0), saved_span[k].hi - saved_span[k].lo + 1,
+                      LocalCell{0});
+        }
+        saved_span[k] = cur_span;
+        if (cur_span.lo <= cur_span.hi) {
+          std::copy_n(row_at(c) + (cur_span.lo - x0), cur_span.hi - cur_span.lo + 1,
+                      cur + (cur_span.lo - x0));
+        }
+        span = out.lo <= out.hi ? out : RowSpan{};
+        prev_span = cur_span;
+        if (out.lo > out.hi) continue;
+        const LocalCell* prev = saved_.get() + static_cast<std::size_t>(1 - k) * n;
+        const LocalCell* next = c < hi ? row_at(c + 1) : zeros;
+        const int from = out.lo - x0;
+        blur_row3(prev + from, cur + from, next + from, row_at(c) + from, out.hi - out.lo + 1);
       }
       continue;
     }
@@ -314,7 +352,7 @@ void LocalGrid::blur_across(int axis, int radius) {
       std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
       for (int x = 0; x < n; ++x)
         dst[x] = static_cast<LocalCell>(symmetric_shift(sum[x], 2 * radius));
-      *live_at(c) = 1;  // this kernel does not skip: every row may hold values
+      span_at(c) = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
     }
   }
 }

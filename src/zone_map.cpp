@@ -152,14 +152,18 @@ void ZoneMap::fuse(const LocalGrid& local) {
     const int z0 = std::max(lo.z, zone.origin.z);
     const int z1 = std::min(lo.z + ld[2], zone.origin.z + dims_[2]);
     if (x0 >= x1 || y0 >= y1 || z0 >= z1) continue;
-    const int row = x1 - x0;
     for (int z = z0; z < z1; ++z) {
       for (int y = y0; y < y1; ++y) {
-        if (!local.row_may_hold_values(y - origin.y, z - origin.z)) continue;  // all 0
+        // Only the row's span can be non-zero (0 adds nothing).
+        int span_lo = 0, span_hi = -1;
+        if (!local.row_span(y - origin.y, z - origin.z, &span_lo, &span_hi)) continue;
+        const int from = std::max(x0, origin.x + span_lo);
+        const int row = std::min(x1, origin.x + span_hi + 1) - from;
+        if (row <= 0) continue;
         const LocalCell* src =
-            local.data() + local.index(x0 - origin.x, y - origin.y, z - origin.z);
+            local.data() + local.index(from - origin.x, y - origin.y, z - origin.z);
         FusedCell* dst =
-            zone.cells + zone.index(x0 - zone.origin.x, y - zone.origin.y, z - zone.origin.z);
+            zone.cells + zone.index(from - zone.origin.x, y - zone.origin.y, z - zone.origin.z);
         // Without a branch, so that it vectorises: a 0 leaves the (already
         // clamped) cell as it is.
         for (int x = 0; x < row; ++x) {

@@ -49,11 +49,14 @@ class LocalGrid {
   const std::array<int, 3>& active_lo() const { return active_lo_; }
   const std::array<int, 3>& active_hi() const { return active_hi_; }
 
-  // After finish(): false when every cell of row (y, z) in the active region is
-  // 0, so that fusion can pass it over (true may still be an all-zero row).
-  bool row_may_hold_values(int y, int z) const {
-    return row_live_[static_cast<std::size_t>(y) +
-                     static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z)] != 0;
+  // After finish(): the cells of row (y, z) that may be non-zero, [*x_lo, *x_hi]
+  // (grid x, within the active region); false when the whole row is 0, so that
+  // fusion passes it over. Cells outside the span are 0.
+  bool row_span(int y, int z, int* x_lo, int* x_hi) const {
+    const RowSpan& span = spans_[span_index(y, z)];
+    *x_lo = span.lo;
+    *x_hi = span.hi;
+    return span.lo <= span.hi;
   }
 
   // A cell's value after finish(); cells no frame touched read as unknown (0).
@@ -85,11 +88,16 @@ class LocalGrid {
   std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
   std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)
   std::unique_ptr<std::int16_t[]> sum_;   // one x row of partial sums
-  // One flag per x row (y, z): may hold a non-zero cell. Most rows of the active
-  // box lie outside the frustum or behind surfaces: the blur and fusion skip them.
-  std::unique_ptr<std::uint8_t[]> row_live_;
-  std::uint8_t* live_flag(int y, int z) {
-    return row_live_.get() + static_cast<std::size_t>(y) +
+  // One span per x row (y, z): the cells that may be non-zero. Most rows of the
+  // active box lie outside the frustum or behind surfaces, and a row's cells in
+  // the frustum are a fraction of the box's width: the blur and fusion work on
+  // the spans only.
+  struct RowSpan {
+    std::int32_t lo = 0, hi = -1;  // grid x; empty when lo > hi
+  };
+  std::unique_ptr<RowSpan[]> spans_;
+  std::size_t span_index(int y, int z) const {
+    return static_cast<std::size_t>(y) +
            static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z);
   }
   std::array<int, 3> touched_lo_;

@@ -116,7 +116,7 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))),
-      sky_flags_(new std::uint8_t[static_cast<std::size_t>(std::max(camera.width, 1))]()) {
+      sky_flags_(new std::uint8_t[3 * static_cast<std::size_t>(std::max(camera.width, 1))]()) {
   // d_min <= d <= d_max as raw codes, fixed for the run: the last raw values
   // that are too near / not yet beyond d_max (16 bits; a limit past the code
   // range never applies).
@@ -148,37 +148,39 @@ void Mapper::sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const
                                  left + static_cast<std::size_t>(std::min(v + 1, h - 1)) * w};
   const auto min_intensity = static_cast<std::uint8_t>(config_.sky.min_intensity);
   const auto max_gradient = static_cast<std::uint8_t>(config_.sky.max_gradient);
+  // Every neighbour n is within g of the centre c when max(n) - c <= g and
+  // c - min(n) <= g: the 3 x 3 maximum and minimum, separably (columns first).
+  std::uint8_t* column_max = flags + w;
+  std::uint8_t* column_min = flags + 2 * static_cast<std::size_t>(w);
+  for (int u = 0; u < w; ++u) {
+    column_max[u] = std::max(std::max(rows[0][u], rows[1][u]), rows[2][u]);
+    column_min[u] = std::min(std::min(rows[0][u], rows[1][u]), rows[2][u]);
+  }
   // Edge columns repeat their neighbour (the image is clamped at its border).
-  const auto flag = [&](int u, int left_u, int right_u) {
-    const std::uint8_t centre = rows[1][u];
-    std::uint8_t ok = centre >= min_intensity ? 1 : 0;
-    for (const std::uint8_t* row : rows) {
-      for (const int x : {left_u, u, right_u}) {
-        const std::uint8_t n = row[x];
-        const auto diff = static_cast<std::uint8_t>(n > centre ? n - centre : centre - n);
-        ok &= diff <= max_gradient ? 1 : 0;
-      }
-    }
-    return ok;
+  const auto flag = [&](std::uint8_t centre, std::uint8_t high, std::uint8_t low) {
+    return static_cast<std::uint8_t>(centre >= min_intensity &&
+                                     static_cast<std::uint8_t>(high - centre) <= max_gradient &&
+                                     static_cast<std::uint8_t>(centre - low) <= max_gradient);
   };
   if (w < 3) {
-    for (int u = 0; u < w; ++u) flags[u] = flag(u, std::max(u - 1, 0), std::min(u + 1, w - 1));
+    for (int u = 0; u < w; ++u) {
+      const int l = std::max(u - 1, 0), r = std::min(u + 1, w - 1);
+      flags[u] = flag(rows[1][u], std::max(column_max[l], column_max[r]),
+                      std::min(column_min[l], column_min[r]));
+    }
     return;
   }
-  flags[0] = flag(0, 0, 1);
-  flags[w - 1] = flag(w - 1, w - 2, w - 1);
+  flags[0] = flag(rows[1][0], std::max(column_max[0], column_max[1]),
+                  std::min(column_min[0], column_min[1]));
+  flags[w - 1] = flag(rows[1][w - 1], std::max(column_max[w - 2], column_max[w - 1]),
+                      std::min(column_min[w - 2], column_min[w - 1]));
   // The interior without clamping: plain byte arithmetic the compiler vectorises.
   for (int u = 1; u < w - 1; ++u) {
-    const std::uint8_t centre = rows[1][u];
-    std::uint8_t ok = centre >= min_intensity ? 1 : 0;
-    for (int r = 0; r < 3; ++r) {
-      for (int du = -1; du <= 1; ++du) {
-        const std::uint8_t n = rows[r][u + du];
-        const auto diff = static_cast<std::uint8_t>(n > centre ? n - centre : centre - n);
-        ok &= diff <= max_gradient ? 1 : 0;
-      }
-    }
-    flags[u] = ok;
+    const std::uint8_t high =
+        std::max(std::max(column_max[u - 1], column_max[u]), column_max[u + 1]);
+    const std::uint8_t low =
+        std::min(std::min(column_min[u - 1], column_min[u]), column_min[u + 1]);
+    flags[u] = flag(rows[1][u], high, low);
   }
 }
 

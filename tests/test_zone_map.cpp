@@ -248,6 +248,50 @@ TEST(Mapper, SkyFilterTurnsBrightFlatMissingDepthIntoFreeSpace) {
   EXPECT_EQ(blind.integrate({depth.data(), nullptr, 16, 12}, looking_along_x()).pixels_sky, 0);
 }
 
+TEST(Mapper, SkyFlagsMatchTheirDefinitionAtEveryPixel) {
+  // Random bright images near the thresholds (intensity 200, gradient 8) with
+  // missing depth here and there; widths with and without interior columns.
+  // Sky: missing depth, bright, every 8-neighbour (clamped at the border)
+  // within the gradient.
+  std::uint32_t state = 7;
+  const auto next = [&] {
+    state = state * 1664525u + 1013904223u;
+    return state >> 8;
+  };
+  for (const int width : {16, 13, 3, 2, 1}) {
+    const int height = 12;
+    MapConfig config = small_config();
+    config.zone_cells = {20, 20, 20};
+    config.integration = MapConfig::Integration::kProjective;
+    CameraModel camera = tiny_camera();
+    camera.width = width;
+    camera.cx = 0.5 * (width - 1);
+    Mapper mapper(config, camera);
+    const std::size_t pixels = static_cast<std::size_t>(width) * height;
+    std::vector<std::uint16_t> depth(pixels);
+    std::vector<std::uint8_t> left(pixels);
+    for (std::size_t i = 0; i < pixels; ++i) {
+      depth[i] = next() % 3 == 0 ? 3000 : 0;
+      left[i] = static_cast<std::uint8_t>(195 + next() % 12);  // 195..206
+    }
+    int expected = 0;
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        const int c = left[static_cast<std::size_t>(v * width + u)];
+        bool sky = depth[static_cast<std::size_t>(v * width + u)] == 0 && c >= 200;
+        for (int dv = -1; dv <= 1; ++dv)
+          for (int du = -1; du <= 1; ++du) {
+            const int nu = std::clamp(u + du, 0, width - 1), nv = std::clamp(v + dv, 0, height - 1);
+            sky = sky && std::abs(left[static_cast<std::size_t>(nv * width + nu)] - c) <= 8;
+          }
+        expected += sky ? 1 : 0;
+      }
+    const FrameReport report =
+        mapper.integrate({depth.data(), left.data(), width, height}, looking_along_x());
+    EXPECT_EQ(report.pixels_sky, expected) << width;
+  }
+}
+
 TEST(Mapper, PixelCountsForAnyImageWidth) {
   // Missing, too near, beyond d_max and real depths in a repeating pattern, for
   // widths that fill whole vector loads, leave a tail, or are narrower than one;

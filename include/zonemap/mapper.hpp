@@ -70,7 +70,7 @@ class Mapper {
   // The projective path's depth range table and block flags.
   std::size_t depth_table_bytes() const {
     return depths_.reserved_bytes() + projective_.reserved_bytes() +
-           static_cast<std::size_t>(camera_.width);
+           3 * static_cast<std::size_t>(camera_.width);
   }
   std::size_t reserved_bytes() const {
     return zones_.reserved_bytes() + local_.reserved_bytes() + depth_table_bytes();
@@ -82,7 +82,8 @@ class Mapper {
  private:
   // flags[u] = 1 where pixel (u, v) of the left image may be sky: bright, and
   // every 8-neighbour within max_gradient of it (low texture). One row at a time,
-  // so that the comparisons run sixteen pixels at once.
+  // so that the comparisons run sixteen pixels at once; flags holds three rows
+  // (the flags, then the columns' maxima and minima over rows v - 1..v + 1).
   void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
 
   MapConfig config_;
@@ -93,7 +94,7 @@ class Mapper {
   ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
-  std::unique_ptr<std::uint8_t[]> sky_flags_;  // one row of sky_row
+  std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows
   std::uint16_t raw_near_last_ = 0;            // raw depths <= this are below d_min (0: none)
   std::uint16_t raw_far_last_ = 0;             // raw depths above this are beyond d_max
 };

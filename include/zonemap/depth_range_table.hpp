@@ -26,7 +26,7 @@ class DepthRangeTable {
   static constexpr std::uint16_t kMissing = 0xFFFF;  // no usable ray
   static constexpr std::uint16_t kMaxDepthCode = 0xFFFD;
   static constexpr int kMaxLevels =
-      6;  // squares up to 32 x 32 pixels (larger rectangles: a few more)
+      5;  // squares up to 16 x 16 pixels (larger rectangles: a few more)
 
   DepthRangeTable(int width, int height);
 

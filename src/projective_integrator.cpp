@@ -425,11 +425,11 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   const float reach_lo = (std::sqrt(1.0f + 4.0f * k * cell.a) - 1.0f) / (2.0f * k);
   const float disc = 1.0f - 4.0f * k * cell.b;
   const float reach_hi = disc > 0.0f ? (1.0f - std::sqrt(disc)) / (2.0f * k) : 1e30f;
-  const float top = static_cast<float>(DepthRangeTable::kMaxDepthCode);
-  const auto sign_lo =
-      static_cast<std::uint16_t>(std::clamp(std::floor(reach_lo / code_to_m_) - 1.0f, 0.0f, top));
-  const auto sign_hi =
-      static_cast<std::uint16_t>(std::clamp(std::ceil(reach_hi / code_to_m_) + 1.0f, 0.0f, top));
+  const float top_code = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  const auto sign_lo = static_cast<std::uint16_t>(
+      std::clamp(std::floor(reach_lo / code_to_m_) - 1.0f, 0.0f, top_code));
+  const auto sign_hi = static_cast<std::uint16_t>(
+      std::clamp(std::ceil(reach_hi / code_to_m_) + 1.0f, 0.0f, top_code));
   std::int64_t clipped = 0;
   const auto scan_row = [&](int tx, int v, int count) {
     clipped += count;
@@ -483,6 +483,27 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // stays above the reference's value).
   if (passed_over) {
     const bool crossed = best >= -1.0f;
+    // Once a ray crosses the cell, only depths whose rays can beat it need
+    // clipping: d + Δd(d) reaching a, and d - (1 - best) Δd(d) below b (m̂ =
+    // 1 - |δ - d| / Δd above best somewhere in [a, b]); roots as in pass 1,
+    // widened. The best only grows, so the interval stays a superset. When the
+    // quadratic's second root (large Δd: m̂ rising again) is within d_max, no
+    // upper limit.
+    std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kMaxDepthCode;
+    if (crossed) {
+      const float widen = 129.0f / 128.0f;
+      const float k_reach = resolution_factor_ * widen;
+      const float reach_a = (std::sqrt(1.0f + 4.0f * k_reach * cell.a) - 1.0f) / (2.0f * k_reach);
+      const float k_beat = resolution_factor_ * (1.0f - best) * widen;
+      const float beat_disc = 1.0f - 4.0f * k_beat * cell.b;
+      beat_lo = static_cast<std::uint16_t>(
+          std::clamp(std::floor(reach_a / code_to_m_) - 1.0f, 0.0f, top_code));
+      if (beat_disc > 0.0f && (1.0f + std::sqrt(beat_disc)) / (2.0f * k_beat) > d_max_ * widen) {
+        const float beat_b = (1.0f - std::sqrt(beat_disc)) / (2.0f * k_beat);
+        beat_hi = static_cast<std::uint16_t>(
+            std::clamp(std::ceil(beat_b / code_to_m_) + 1.0f, 0.0f, top_code));
+      }
+    }
     for (int ty = y0; ty <= y1; ty += kTileH) {
       for (int tx = x0; tx <= x1; tx += kTileW) {
         const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
@@ -499,7 +520,17 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
           best = std::max(best, bound);
           continue;
         }
-        for (int v = ty; v <= ey; ++v) scan_row(tx, v, ex - tx + 1);
+        const int count = ex - tx + 1;
+        for (int v = ty; v <= ey; ++v) {
+          if (!crossed) {
+            scan_row(tx, v, count);
+            continue;
+          }
+          const int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
+                                                     beat_lo, beat_hi);
+          if (halves & 1) scan_row(tx, v, std::min(count, 4));
+          if (halves & 2) scan_row(tx + 4, v, count - 4);
+        }
       }
     }
   }

@@ -407,6 +407,32 @@ float ProjectiveIntegrator::best_value(const DepthRangeTable& depths, int x0, in
   return best;
 }
 
+// The depth codes [*lo, *hi] whose rays can reach into a cell's δ-support
+// [a, b] far enough: d + s_lo Δd(d) >= a and d - s_hi Δd(d) <= b (Δd = d²
+// factor; s = 1 - m̂ for "m̂ at least ..."), from the roots of the two
+// quadratics in d, widened by a code each way: a filter, never the decision.
+// d - s Δd(d) falls again past its second root (large Δd): when
+// `open_past_second_root` and that root is within d_max, no upper limit.
+inline void ProjectiveIntegrator::codes_reaching(float a, float b, float s_lo, float s_hi,
+                                                 bool open_past_second_root, std::uint16_t* lo,
+                                                 std::uint16_t* hi) const {
+  const float top_code = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  const float k_lo = resolution_factor_ * s_lo;
+  const float reach_a = (std::sqrt(1.0f + 4.0f * k_lo * a) - 1.0f) / (2.0f * k_lo);
+  *lo = static_cast<std::uint16_t>(
+      std::clamp(std::floor(reach_a / code_to_m_) - 1.0f, 0.0f, top_code));
+  *hi = DepthRangeTable::kMaxDepthCode;
+  const float k_hi = resolution_factor_ * s_hi;
+  const float disc = 1.0f - 4.0f * k_hi * b;
+  if (disc <= 0.0f) return;  // d - s Δd(d) <= b for every d
+  const float root = std::sqrt(disc);
+  if (open_past_second_root && (1.0f + root) / (2.0f * k_hi) <= d_max_ * (129.0f / 128.0f))
+    return;  // (d_max widened as the roots are)
+  const float reach_b = (1.0f - root) / (2.0f * k_hi);
+  *hi = static_cast<std::uint16_t>(
+      std::clamp(std::ceil(reach_b / code_to_m_) + 1.0f, 0.0f, top_code));
+}
+
 float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                         int y1, const CellRays& cell, float best,
                                         std::int64_t* rays) const {
@@ -416,20 +442,11 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // exact maximum, each tile bounded by its depth range (the cell's δ-support
   // bounds every ray's part in it).
   constexpr int kTileW = 8, kTileH = 4;
-  // The depths (codes) whose rays can reach the sign sought in the cell: a
-  // depth below a reaches it when d + Δd(d) (scaled by the rounding margin)
-  // passes a, a depth above b when d - Δd(d) stays below b (roots of the
-  // quadratics in d; widened by a code each way: only a filter).
+  // The depths whose rays can reach the sign sought: m̂ >= 0 (> 0) widened
+  // (narrowed) by the rounding margin.
   const float margin = cell.enough_fixed > 0 ? 127.0f / 128.0f : 129.0f / 128.0f;
-  const float k = resolution_factor_ * margin;
-  const float reach_lo = (std::sqrt(1.0f + 4.0f * k * cell.a) - 1.0f) / (2.0f * k);
-  const float disc = 1.0f - 4.0f * k * cell.b;
-  const float reach_hi = disc > 0.0f ? (1.0f - std::sqrt(disc)) / (2.0f * k) : 1e30f;
-  const float top_code = static_cast<float>(DepthRangeTable::kMaxDepthCode);
-  const auto sign_lo = static_cast<std::uint16_t>(
-      std::clamp(std::floor(reach_lo / code_to_m_) - 1.0f, 0.0f, top_code));
-  const auto sign_hi = static_cast<std::uint16_t>(
-      std::clamp(std::ceil(reach_hi / code_to_m_) + 1.0f, 0.0f, top_code));
+  std::uint16_t sign_lo = 0, sign_hi = 0;
+  codes_reaching(cell.a, cell.b, margin, margin, false, &sign_lo, &sign_hi);
   std::int64_t clipped = 0;
   const auto scan_row = [&](int tx, int v, int count) {
     clipped += count;
@@ -484,25 +501,13 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   if (passed_over) {
     const bool crossed = best >= -1.0f;
     // Once a ray crosses the cell, only depths whose rays can beat it need
-    // clipping: d + Δd(d) reaching a, and d - (1 - best) Δd(d) below b (m̂ =
-    // 1 - |δ - d| / Δd above best somewhere in [a, b]); roots as in pass 1,
-    // widened. The best only grows, so the interval stays a superset. When the
-    // quadratic's second root (large Δd: m̂ rising again) is within d_max, no
-    // upper limit.
+    // clipping: rays reaching a at all (d + Δd(d) >= a), and d - (1 - best) Δd(d)
+    // <= b (m̂ = 1 - |δ - d| / Δd above best somewhere in [a, b]), widened. The
+    // best only grows, so the interval stays a superset.
     std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kMaxDepthCode;
     if (crossed) {
       const float widen = 129.0f / 128.0f;
-      const float k_reach = resolution_factor_ * widen;
-      const float reach_a = (std::sqrt(1.0f + 4.0f * k_reach * cell.a) - 1.0f) / (2.0f * k_reach);
-      const float k_beat = resolution_factor_ * (1.0f - best) * widen;
-      const float beat_disc = 1.0f - 4.0f * k_beat * cell.b;
-      beat_lo = static_cast<std::uint16_t>(
-          std::clamp(std::floor(reach_a / code_to_m_) - 1.0f, 0.0f, top_code));
-      if (beat_disc > 0.0f && (1.0f + std::sqrt(beat_disc)) / (2.0f * k_beat) > d_max_ * widen) {
-        const float beat_b = (1.0f - std::sqrt(beat_disc)) / (2.0f * k_beat);
-        beat_hi = static_cast<std::uint16_t>(
-            std::clamp(std::ceil(beat_b / code_to_m_) + 1.0f, 0.0f, top_code));
-      }
+      codes_reaching(cell.a, cell.b, widen, (1.0f - best) * widen, true, &beat_lo, &beat_hi);
     }
     for (int ty = y0; ty <= y1; ty += kTileH) {
       for (int tx = x0; tx <= x1; tx += kTileW) {

@@ -64,6 +64,9 @@ class ProjectiveIntegrator {
   // cell.enough_fixed; when none does, the result keeps the reference's sign and
   // is never below its value. Adds the rays it clipped to *rays.
   struct CellRays;
+  // The depth codes whose rays reach [a, b] with m̂ >= 1 - s (see the definition).
+  void codes_reaching(float a, float b, float s_lo, float s_hi, bool open_past_second_root,
+                      std::uint16_t* lo, std::uint16_t* hi) const;
   float exact_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                     const CellRays& cell, float best, std::int64_t* rays) const;
 

@@ -721,10 +721,11 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         const double b = zc + half.z();
         if (b < d_min_ || a > d_max_) continue;
         // The bulk of the frustum is free space or hidden behind surfaces. When
-        // every pixel ray near the cell is free across it (known for its whole
-        // block, or from the depth range over the cell's footprint), the ray of
-        // the centre pixel crossing it settles the cell: free. When every such
-        // ray ends before the cell, nothing reaches it.
+        // every pixel ray near the cell is free across it, the cell is free:
+        // known for its whole block (then the centre pixel's ray, real and
+        // crossing the cell, saves projecting it), or from the depth range over
+        // the cell's footprint (best_value's bound is then exactly -1). When
+        // every such ray ends before the cell, nothing reaches it.
         const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
         const auto centre_ray = [&] {  // the centre pixel's ray is real and crosses the cell
           const double inv_z = 1.0 / zc;
@@ -752,7 +753,8 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           ++stats.cells_hidden;  // every ray ends before the cell
           continue;
         }
-        if (quick && free_across(lo_code, hi_code, static_cast<float>(b)) && centre_ray()) {
+        if (free_across(lo_code, hi_code, static_cast<float>(b))) {
+          // What best_value gives here, without its scan.
           ++stats.cells_evaluated;
           ++stats.cells_box_free;
           grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));

@@ -28,7 +28,7 @@ namespace zonemap {
 struct ProjectiveStats {
   std::int64_t cells_evaluated = 0;   // frustum cells whose footprint holds pixels
   std::int64_t cells_block_free = 0;  // free: settled by their block's bound and one ray
-  std::int64_t cells_box_free = 0;    // free: settled by their own box's bound and one ray
+  std::int64_t cells_box_free = 0;    // free: settled by their own box's bound
   std::int64_t cells_hidden = 0;      // in the frustum, behind every surface: no ray reaches
   std::int64_t cells_exact = 0;       // settled ray by ray (bounds did not agree)
   std::int64_t rays_exact = 0;        // pixel rays clipped against those cells

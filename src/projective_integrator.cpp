@@ -15,10 +15,25 @@ constexpr std::uint8_t kBlockMixed = 0;   // look at each cell
 constexpr std::uint8_t kBlockFree = 1;    // every ray near it is free across it
 constexpr std::uint8_t kBlockUnseen = 2;  // no ray reaches it (or no pixel sees it)
 
-// Pixel rays relative to the camera centre, in world axes: the ray of pixel
-// (u, v) is δ ↦ δ (w00 + u du + v dv) (δ: depth along the optical axis).
-struct RayBasis {
-  float w00[3], du[3], dv[3];
+using Lanes = float __attribute__((vector_size(16)));
+inline Lanes lanes_min(Lanes a, Lanes b) {
+  return a < b ? a : b;
+}
+inline Lanes lanes_max(Lanes a, Lanes b) {
+  return a > b ? a : b;
+}
+inline Lanes splat(float v) {
+  return Lanes{v, v, v, v};
+}
+
+// What clipping pixel rays against one cell needs, each value in four equal
+// lanes (set once per frame or per cell, not per four rays). Rays relative to
+// the camera centre, in world axes: the ray of pixel (u, v) is δ ↦ δ (w00 + u du
+// + v dv) (δ: depth along the optical axis); the cell is the box [lo, hi].
+struct RayLanes {
+  Lanes w00[3], du[3], dv[3];
+  Lanes lo[3], hi[3];
+  Lanes d_min, d_max, code_to_m, resolution_factor;
 };
 
 LocalCell quantize(float units) {
@@ -87,11 +102,9 @@ Frustum make_frustum(const Eigen::Isometry3d& world_T_camera, const CameraModel&
 
 }  // namespace
 
-// The pixel rays of one cell, all relative to the camera centre: the ray of pixel
-// (u, v) is δ ↦ δ (w00 + u du + v dv) in world axes (δ: depth along the optical axis).
+// The pixel rays of one cell (see RayLanes).
 struct ProjectiveIntegrator::CellRays {
-  float lo[3] = {}, hi[3] = {};  // the cell's world box minus the camera centre
-  RayBasis basis{};
+  RayLanes rays{};           // lo, hi: the cell's world box minus the camera centre
   float a = 0.0f, b = 0.0f;  // the cell's δ-support (camera-frame z range, from d_min)
   int enough_fixed = 0;      // the ray-by-ray search may stop at this cell value
 };
@@ -126,17 +139,6 @@ inline float ProjectiveIntegrator::value_for_code(std::uint16_t code, float a, f
 }
 
 namespace {
-
-using Lanes = float __attribute__((vector_size(16)));
-inline Lanes lanes_min(Lanes a, Lanes b) {
-  return a < b ? a : b;
-}
-inline Lanes lanes_max(Lanes a, Lanes b) {
-  return a > b ? a : b;
-}
-inline Lanes splat(float v) {
-  return Lanes{v, v, v, v};
-}
 
 // The pixel rectangle a cube covers: the image box of its eight corners, given
 // four at a time as (x, y, z) offsets from its centre (camera frame), clamped
@@ -277,24 +279,22 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
 // centre at the origin; the ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)),
 // kNoRay when none crosses it. Same rule as the reference (each ray clipped to
 // the box, then value_for_code over the part inside), written without branches.
-inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayBasis& basis, const float lo[3],
-                       const float hi[3], float d_min, float d_max, float code_to_m,
-                       float resolution_factor) {
-  Lanes enter = splat(d_min), leave = splat(1e30f);
+inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayLanes& r) {
+  Lanes enter = r.d_min, leave = splat(1e30f);
   for (int k = 0; k < 3; ++k) {
-    const Lanes w = splat(basis.w00[k]) + u * splat(basis.du[k]) + v * splat(basis.dv[k]);
+    const Lanes w = r.w00[k] + u * r.du[k] + v * r.dv[k];
     // A ray parallel to a slab: a tiny offset keeps the products finite.
     const Lanes safe = w < 0.0f ? w - 1e-20f : w + 1e-20f;
     const Lanes inv = 1.0f / safe;
-    const Lanes ta = splat(lo[k]) * inv, tb = splat(hi[k]) * inv;
+    const Lanes ta = r.lo[k] * inv, tb = r.hi[k] * inv;
     enter = lanes_max(enter, lanes_min(ta, tb));
     leave = lanes_min(leave, lanes_max(ta, tb));
   }
   const auto far = code == static_cast<float>(DepthRangeTable::kFar);
   const auto missing = code == static_cast<float>(DepthRangeTable::kMissing);
-  const Lanes d = code * code_to_m;
-  const Lanes resolution = lanes_max(d * d * resolution_factor, splat(1e-6f));
-  const Lanes end = far ? splat(d_max) : lanes_min(d + resolution, splat(d_max));
+  const Lanes d = code * r.code_to_m;
+  const Lanes resolution = lanes_max(d * d * r.resolution_factor, splat(1e-6f));
+  const Lanes end = far ? r.d_max : lanes_min(d + resolution, r.d_max);
   const Lanes delta = lanes_min(lanes_max(d, enter), lanes_min(leave, end));
   const Lanes offset = delta - d;
   // Eq. (4)/(5) as one expression: continuous, -1 up to d - 2Δd, peak at d, 0
@@ -342,9 +342,7 @@ int row_halves_with_code_in(const std::uint16_t* codes, int width, int x0, int c
 }
 
 // The rays of one row segment of the depth image, four at a time.
-float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBasis& basis,
-               const float lo[3], const float hi[3], float d_min, float d_max, float code_to_m,
-               float resolution_factor) {
+float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayLanes& rays) {
   Lanes best = splat(kNoRay);
   const Lanes row = splat(static_cast<float>(v));
   for (int first = 0; first < count; first += 4) {
@@ -353,8 +351,7 @@ float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayBa
     for (int i = 0; i < 4 && first + i < count; ++i) {
       code[i] = static_cast<float>(codes[first + i]);
     }
-    best = lanes_max(
-        best, rays_best(u, row, code, basis, lo, hi, d_min, d_max, code_to_m, resolution_factor));
+    best = lanes_max(best, rays_best(u, row, code, rays));
   }
   return lanes_hmax(best);
 }
@@ -452,8 +449,7 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
     clipped += count;
     best =
         std::max(best, row_best(depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
-                                tx, v, count, cell.basis, cell.lo, cell.hi, d_min_, d_max_,
-                                code_to_m_, resolution_factor_));
+                                tx, v, count, cell.rays));
   };
   // Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
   // only the rows holding such a depth (one vector compare per row), until a ray
@@ -673,10 +669,14 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
     const Eigen::Vector3f w00 =
         rf * Eigen::Vector3f(static_cast<float>(-cx / fx), static_cast<float>(-cy / fy), 1.0f);
     for (int k = 0; k < 3; ++k) {
-      cell.basis.w00[k] = w00[k];
-      cell.basis.du[k] = du[k];
-      cell.basis.dv[k] = dv[k];
+      cell.rays.w00[k] = splat(w00[k]);
+      cell.rays.du[k] = splat(du[k]);
+      cell.rays.dv[k] = splat(dv[k]);
     }
+    cell.rays.d_min = splat(d_min_);
+    cell.rays.d_max = splat(d_max_);
+    cell.rays.code_to_m = splat(code_to_m_);
+    cell.rays.resolution_factor = splat(resolution_factor_);
   }
   const auto cell_size = static_cast<float>(s);
   // The ray of the pixel nearest to a cell's projected centre passes within
@@ -778,8 +778,8 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           const Eigen::Vector3f cell_lo =
               (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
           for (int k = 0; k < 3; ++k) {
-            cell.lo[k] = cell_lo[k];
-            cell.hi[k] = cell_lo[k] + cell_size;
+            cell.rays.lo[k] = splat(cell_lo[k]);
+            cell.rays.hi[k] = splat(cell_lo[k] + cell_size);
           }
           cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
           // Probes, four rays at once: through the centre, through points near
@@ -811,8 +811,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           const std::uint16_t* codes = depths.codes();
           const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
           const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
-          float lower = lanes_hmax(rays_best(pu, pv, probe_code, cell.basis, cell.lo, cell.hi,
-                                             d_min_, d_max_, code_to_m_, resolution_factor_));
+          float lower = lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
           if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
             ++stats.cells_exact;
             const float found =

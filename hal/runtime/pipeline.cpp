@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "hal/os/allocation_counter.hpp"
+#include "hal/os/doorbell.hpp"
 #include "hal/os/realtime.hpp"
 #include "zonemap/extraction_schedule.hpp"
 #include "zonemap/pose_buffer.hpp"
@@ -24,14 +25,47 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Waiting for work on an idle queue: yield the CPU, never sleep on a lock.
-template <typename Queue, typename T>
-void pop_waiting(Queue& queue, T* item) {
-  while (!queue.pop(item)) std::this_thread::yield();
+// A lock-free queue from one thread to another, with both threads' bells: a
+// push rings the consumer's (there is work), a pop the producer's (there is room).
+template <typename T, std::size_t N>
+struct Channel {
+  SpscQueue<T, N> queue;
+  os::Doorbell* producer = nullptr;
+  os::Doorbell* consumer = nullptr;
+  void connect(os::Doorbell* from, os::Doorbell* to) {
+    producer = from;
+    consumer = to;
+  }
+  bool push(const T& item) {
+    if (!queue.push(item)) return false;
+    consumer->ring();
+    return true;
+  }
+  bool pop(T* item) {
+    if (!queue.pop(item)) return false;
+    producer->ring();
+    return true;
+  }
+  std::size_t size_approx() const { return queue.size_approx(); }
+};
+
+// Waiting on a channel: the calling thread sleeps on its own bell until the
+// other side rings it (never spins, never takes a lock).
+template <typename C, typename T>
+void pop_waiting(C& channel, T* item, os::Doorbell& own) {
+  while (!channel.pop(item)) {
+    const std::uint32_t ticket = own.ticket();
+    if (channel.pop(item)) return;
+    own.wait(ticket);
+  }
 }
-template <typename Queue, typename T>
-void push_waiting(Queue& queue, const T& item) {
-  while (!queue.push(item)) std::this_thread::yield();
+template <typename C, typename T>
+void push_waiting(C& channel, const T& item, os::Doorbell& own) {
+  while (!channel.push(item)) {
+    const std::uint32_t ticket = own.ticket();
+    if (channel.push(item)) return;
+    own.wait(ticket);
+  }
 }
 
 // The INS thread's counters as the other threads may read them (relaxed: each
@@ -87,8 +121,10 @@ struct Pipeline::Impl {
   };
   std::array<hal::ReplayFrame, kFrameSlots> frames;
   std::array<SlotInfo, kFrameSlots> frame_info{};
-  SpscQueue<std::uint32_t, 16> filled;      // acquisition -> mapping
-  SpscQueue<std::uint32_t, 16> free_slots;  // mapping -> acquisition
+  // Each thread's bell: rung when there may be work (or room) for it.
+  os::Doorbell acquisition_bell, mapping_bell, extraction_bell, output_bell;
+  Channel<std::uint32_t, 16> filled;      // acquisition -> mapping
+  Channel<std::uint32_t, 16> free_slots;  // mapping -> acquisition
   PoseBuffer<512> poses;
   PoseTrack mapping_track{0.1, 0.02};
 
@@ -103,8 +139,8 @@ struct Pipeline::Impl {
     hal::HealthSnapshot health;  // the mapping side's counters at this update
   };
   std::array<OutputBuffer, kOutputSlots> outputs;
-  SpscQueue<std::uint32_t, 4> out_filled;  // extraction -> output
-  SpscQueue<std::uint32_t, 4> out_free;    // output -> mapping
+  Channel<std::uint32_t, 4> out_filled;  // extraction -> output
+  Channel<std::uint32_t, 4> out_free;    // output -> mapping
 
   // Mapping -> extraction, in the order the mapping thread meant them: the
   // extraction thread replays the single-threaded sequence of feature-map calls.
@@ -126,9 +162,9 @@ struct Pipeline::Impl {
     bool answered = false;  // the marker: no box, every box of `allocation` sent
   };
   std::vector<std::unique_ptr<ZoneSnapshot>> snapshots;
-  SpscQueue<std::uint32_t, 16> snapshot_free;       // extraction -> mapping
-  SpscQueue<ExtractionJob, 64> jobs;                // mapping -> extraction
-  SpscQueue<ReintegrationBox, 1024> reintegration;  // extraction -> mapping
+  Channel<std::uint32_t, 16> snapshot_free;       // extraction -> mapping
+  Channel<ExtractionJob, 64> jobs;                // mapping -> extraction
+  Channel<ReintegrationBox, 1024> reintegration;  // extraction -> mapping
   ExtractionSchedule schedule;
   FusedCell snapshot_threshold;
   FusedCell reintegration_value;
@@ -168,6 +204,13 @@ struct Pipeline::Impl {
         snapshot_threshold(f.occupied_threshold()),
         reintegration_value(f.reintegration_value()) {
     feed.impl = this;
+    filled.connect(&acquisition_bell, &mapping_bell);
+    free_slots.connect(&mapping_bell, &acquisition_bell);
+    out_filled.connect(&extraction_bell, &output_bell);
+    out_free.connect(&output_bell, &mapping_bell);
+    snapshot_free.connect(&extraction_bell, &mapping_bell);
+    jobs.connect(&mapping_bell, &extraction_bell);
+    reintegration.connect(&extraction_bell, &mapping_bell);
     for (std::uint32_t i = 0; i < kSnapshotSlots; ++i) {
       snapshots.push_back(std::make_unique<ZoneSnapshot>(m.config().zone_cells));
       snapshot_free.push(i);
@@ -206,7 +249,7 @@ struct Pipeline::Impl {
       spare = kEnd;
       if (slot == kEnd) {
         if (options.lossless) {
-          pop_waiting(free_slots, &slot);
+          pop_waiting(free_slots, &slot, acquisition_bell);
         } else if (!free_slots.pop(&slot)) {
           slot = kEnd;  // every slot waits for the mapper: this frame will be dropped
         }
@@ -245,9 +288,10 @@ struct Pipeline::Impl {
         while (next_pose < samples.size() && samples[next_pose].time_s <= frame_time + gap) {
           poses.push(samples[next_pose++]);
         }
+        mapping_bell.ring();  // a mapper waiting for a late pose looks again
       }
       frame_info[slot] = {index, Clock::now()};
-      push_waiting(filled, slot);  // cannot stay full: it holds all the slots
+      push_waiting(filled, slot, acquisition_bell);  // cannot stay full: it holds all the slots
       offered.fetch_add(1, std::memory_order_release);
     }
     if (stop_requested.load(std::memory_order_acquire)) s.stopped = true;
@@ -256,7 +300,7 @@ struct Pipeline::Impl {
       while (next_pose < samples.size()) poses.push(samples[next_pose++]);
     }
     s.frames_lost = source.frames_lost();
-    push_waiting(filled, kEnd);
+    push_waiting(filled, kEnd, acquisition_bell);
   }
 
   // Newest wins with every slot waiting: the next frame is read into this spare
@@ -265,7 +309,11 @@ struct Pipeline::Impl {
 
   struct BufferSink final : hal::PoseSink {
     PoseBuffer<512>* buffer;
-    void push(const PoseSample& p) override { buffer->push(p); }
+    os::Doorbell* mapping_bell;
+    void push(const PoseSample& p) override {
+      buffer->push(p);
+      mapping_bell->ring();  // a mapper waiting for this pose looks again
+    }
   };
 
   void ins() {
@@ -273,6 +321,7 @@ struct Pipeline::Impl {
     realtime(options.priority_ins, options.cpu_ins, &s, "ins");
     BufferSink sink;
     sink.buffer = &poses;
+    sink.mapping_bell = &mapping_bell;
     os::AllocationScope scope;
     while (!mapping_done.load(std::memory_order_acquire)) {
       const hal::PollResult r = live_poses->poll(sink, 20);
@@ -293,13 +342,13 @@ struct Pipeline::Impl {
     const Clock::time_point deadline =
         Clock::now() + std::chrono::duration_cast<Clock::duration>(
                            std::chrono::duration<double>(options.pose_wait_s));
-    while (Clock::now() < deadline) {
-      std::this_thread::yield();
+    while (true) {
+      const std::uint32_t ticket = mapping_bell.ticket();
       newest = poses.snapshot(&mapping_track);
       if (mapping_track.lookup(time_s, pose) != PoseLookup::kNoPose) return true;
       if (newest >= time_s) return false;
+      if (!mapping_bell.wait_until(ticket, deadline)) return false;  // rung by every pose
     }
-    return false;
   }
 
   void fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
@@ -341,16 +390,24 @@ struct Pipeline::Impl {
 
   // --- the mapping thread's side of the feature map ---------------------------
 
-  // Every wait of the mapping thread on the extraction thread also writes the
-  // re-integration boxes that have come: the extraction thread may itself be
-  // waiting for room in that queue (newest wins; lossless has none pending then).
-  void wait_step() {
-    if (!options.lossless) apply_reintegration(0, nullptr);
-    std::this_thread::yield();
+  // The mapping thread waits for the extraction thread until `done()` (which
+  // may take what it waited for). Each round also writes the re-integration
+  // boxes that have come: the extraction thread may itself be waiting for room
+  // in that queue (newest wins; lossless has none pending then).
+  template <typename Done>
+  void wait_for_extraction(Done done) {
+    while (true) {
+      const std::uint32_t ticket = mapping_bell.ticket();
+      if (done()) return;
+      if (!options.lossless) apply_reintegration(0, nullptr);
+      if (done()) return;
+      mapping_bell.wait(ticket);
+    }
   }
 
   void push_job(const ExtractionJob& job) {
-    while (!jobs.push(job)) wait_step();  // holds 64; a frame sends at most ~18
+    // Holds 64; a frame sends at most ~18.
+    wait_for_extraction([&] { return jobs.push(job); });
   }
 
   ExtractionJob context_job(ExtractionJob::Kind kind) const {
@@ -369,17 +426,20 @@ struct Pipeline::Impl {
     if (periodic) {
       // Newest wins: skip this round when the extraction thread is behind; lossless
       // waits, so that the map stays the single-threaded one.
-      while (snapshot_free.size_approx() <= static_cast<std::size_t>(kZonesHeld)) {
+      const auto spare = [&] {
+        return snapshot_free.size_approx() > static_cast<std::size_t>(kZonesHeld);
+      };
+      if (!spare()) {
         if (!options.lossless) {
           ++s.extractions_deferred;
           return false;
         }
-        wait_step();
+        wait_for_extraction(spare);
       }
       snapshot_free.pop(&slot);
     } else if (!snapshot_free.pop(&slot)) {
       ++s.snapshot_waits;
-      while (!snapshot_free.pop(&slot)) wait_step();
+      wait_for_extraction([&] { return snapshot_free.pop(&slot); });
     }
     snapshots[slot]->capture(zone, snapshot_threshold);
     ExtractionJob job = context_job(ExtractionJob::Kind::kExtract);
@@ -407,9 +467,10 @@ struct Pipeline::Impl {
     PipelineStats& s = mapping_stats;
     ReintegrationBox box;
     while (true) {
+      const std::uint32_t ticket = mapping_bell.ticket();
       if (!reintegration.pop(&box)) {
         if (allocations_answered >= until) return;
-        std::this_thread::yield();
+        mapping_bell.wait(ticket);
         continue;
       }
       if (box.answered) {
@@ -441,7 +502,7 @@ struct Pipeline::Impl {
     os::AllocationScope scope;
     while (true) {
       ExtractionJob job;
-      pop_waiting(jobs, &job);
+      pop_waiting(jobs, &job, extraction_bell);
       if (job.kind == ExtractionJob::Kind::kEnd) break;
       features.set_context(job.time_s,
                            Eigen::Vector3d(job.vehicle[0], job.vehicle[1], job.vehicle[2]));
@@ -451,16 +512,17 @@ struct Pipeline::Impl {
           features.extract(*snapshots[job.slot]);
           s.extraction.record(ms_between(start, Clock::now()));
           ++s.extractions;
-          push_waiting(snapshot_free, job.slot);
+          push_waiting(snapshot_free, job.slot, extraction_bell);
           break;
         }
         case ExtractionJob::Kind::kAllocated: {
-          features.for_each_reintegration_box(
-              job.zone, [&](const CellIndex& min, const CellIndex& max) {
-                push_waiting(reintegration,
-                             ReintegrationBox{job.zone, min, max, job.allocation, false});
-              });
-          push_waiting(reintegration, ReintegrationBox{job.zone, {}, {}, job.allocation, true});
+          features.for_each_reintegration_box(job.zone, [&](const CellIndex& min,
+                                                            const CellIndex& max) {
+            push_waiting(reintegration, ReintegrationBox{job.zone, min, max, job.allocation, false},
+                         extraction_bell);
+          });
+          push_waiting(reintegration, ReintegrationBox{job.zone, {}, {}, job.allocation, true},
+                       extraction_bell);
           break;
         }
         case ExtractionJob::Kind::kPublish: {
@@ -474,7 +536,7 @@ struct Pipeline::Impl {
                                          options.include_ground, &shapes);
           fill_feature_health(&buffer.health);
           buffer.health.heap_allocations_after_init += scope.counted().allocations;
-          push_waiting(out_filled, job.slot);
+          push_waiting(out_filled, job.slot, extraction_bell);
           break;
         }
         case ExtractionJob::Kind::kEnd:
@@ -484,7 +546,7 @@ struct Pipeline::Impl {
     const os::AllocationCounts counted = scope.counted();
     s.extraction_thread_allocations = counted.allocations;
     s.extraction_thread_frees = counted.frees;
-    push_waiting(out_filled, kEnd);
+    push_waiting(out_filled, kEnd, extraction_bell);
   }
 
   void mapping() {
@@ -494,7 +556,7 @@ struct Pipeline::Impl {
     bool end = false;
     while (!end) {
       std::uint32_t slot = kEnd;
-      pop_waiting(filled, &slot);
+      pop_waiting(filled, &slot, mapping_bell);
       if (slot == kEnd) break;
       if (!options.lossless) {
         // Newest wins: skip to the newest waiting frame.
@@ -505,7 +567,7 @@ struct Pipeline::Impl {
             break;
           }
           ++s.dropped_mapper_behind;
-          push_waiting(free_slots, slot);
+          push_waiting(free_slots, slot, mapping_bell);
           slot = newer;
         }
       }
@@ -519,7 +581,7 @@ struct Pipeline::Impl {
       Eigen::Isometry3d pose;
       if (!pose_for(frame.time_s, &pose, &s)) {
         ++s.frames_skipped_no_pose;
-        push_waiting(free_slots, slot);
+        push_waiting(free_slots, slot, mapping_bell);
         continue;
       }
       DepthFrameView view{frame.depth.data(), frame.has_left ? frame.left.data() : nullptr,
@@ -528,7 +590,7 @@ struct Pipeline::Impl {
       context_vehicle = pose.translation();
       const double frame_time = frame.time_s;
       const FrameReport report = mapper.integrate(view, pose);
-      push_waiting(free_slots, slot);
+      push_waiting(free_slots, slot, mapping_bell);
       if (report.status != FrameStatus::kMapped) {
         ++s.frames_rejected;
         continue;
@@ -574,7 +636,7 @@ struct Pipeline::Impl {
     double last_health_s = -1e300;
     while (true) {
       std::uint32_t out = kEnd;
-      pop_waiting(out_filled, &out);
+      pop_waiting(out_filled, &out, output_bell);
       if (out == kEnd) break;
       OutputBuffer& buffer = outputs[out];
       const double now = seconds_since(started);
@@ -607,7 +669,7 @@ struct Pipeline::Impl {
         for (hal::ObstacleSink* sink : sinks) sink->publish_health(h, now);
         ++s.health_published;
       }
-      push_waiting(out_free, out);
+      push_waiting(out_free, out, output_bell);
     }
     const os::AllocationCounts counted = scope.counted();
     s.output_thread_allocations = counted.allocations;

@@ -459,8 +459,8 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   bool passed_over = false;  // some ray was not clipped in pass 1
   const int tile_rows = (y1 - y0) / kTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
   const auto middle_out = [](int i, int n) {  // m, m + 1, m - 1, m + 2, ... covers [0, n)
-    const int offset = (i + 1) / 2;
-    return (n - 1) / 2 + ((i & 1) ? offset : -offset);
+    const auto offset = static_cast<int>((static_cast<unsigned>(i) + 1) >> 1);  // i, n >= 0
+    return static_cast<int>((static_cast<unsigned>(n) - 1) >> 1) + ((i & 1) ? offset : -offset);
   };
   for (int row_i = 0; row_i < tile_rows; ++row_i) {
     const int ty = y0 + kTileH * middle_out(row_i, tile_rows);
@@ -707,10 +707,10 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
               (static_cast<std::size_t>(y / kBlock) +
                static_cast<std::size_t>(blocks_[1]) * static_cast<std::size_t>(z / kBlock));
       for (int x = xa; x <= xb; ++x, pc += step_x_camera) {
-        const std::uint8_t block = block_row[x / kBlock];
+        const std::uint8_t block = block_row[static_cast<unsigned>(x) / kBlock];  // x >= 0
         if (block == kBlockUnseen) {
           // The rest of the block at once: no ray reaches any of its cells.
-          const int last = std::min(xb, (x / kBlock) * kBlock + kBlock - 1);
+          const int last = std::min(xb, (x & ~(kBlock - 1)) + kBlock - 1);
           stats.cells_hidden += last - x + 1;
           pc += static_cast<double>(last - x) * step_x_camera;
           x = last;

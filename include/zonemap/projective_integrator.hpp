@@ -47,6 +47,7 @@ class ProjectiveIntegrator {
   // Cells are classified in cubes of kBlock^3 first: in a cube every pixel ray
   // crosses in its free part, a cell is free as soon as one ray crosses it.
   static constexpr int kBlock = 4;
+  static_assert((kBlock & (kBlock - 1)) == 0, "a power of two: block starts by masking");
 
  private:
   // The largest m̂ over the pixels in [x0, x1] x [y0, y1] for a cell whose

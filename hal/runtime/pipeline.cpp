@@ -49,23 +49,24 @@ struct Channel {
   std::size_t size_approx() const { return queue.size_approx(); }
 };
 
-// Waiting on a channel: the calling thread sleeps on its own bell until the
-// other side rings it (never spins, never takes a lock).
-template <typename C, typename T>
-void pop_waiting(C& channel, T* item, os::Doorbell& own) {
-  while (!channel.pop(item)) {
+// The calling thread sleeps on its own bell until `done()` (which may take what
+// it waited for): the ticket is taken before the last look, so a ring between
+// that look and the sleep is not lost. Never spins, never takes a lock.
+template <typename Done>
+void wait_on(os::Doorbell& own, Done done) {
+  while (!done()) {
     const std::uint32_t ticket = own.ticket();
-    if (channel.pop(item)) return;
+    if (done()) return;
     own.wait(ticket);
   }
 }
 template <typename C, typename T>
+void pop_waiting(C& channel, T* item, os::Doorbell& own) {
+  wait_on(own, [&] { return channel.pop(item); });
+}
+template <typename C, typename T>
 void push_waiting(C& channel, const T& item, os::Doorbell& own) {
-  while (!channel.push(item)) {
-    const std::uint32_t ticket = own.ticket();
-    if (channel.push(item)) return;
-    own.wait(ticket);
-  }
+  wait_on(own, [&] { return channel.push(item); });
 }
 
 // The INS thread's counters as the other threads may read them (relaxed: each
@@ -396,13 +397,11 @@ struct Pipeline::Impl {
   // in that queue (newest wins; lossless has none pending then).
   template <typename Done>
   void wait_for_extraction(Done done) {
-    while (true) {
-      const std::uint32_t ticket = mapping_bell.ticket();
-      if (done()) return;
+    wait_on(mapping_bell, [&] {
+      if (done()) return true;
       if (!options.lossless) apply_reintegration(0, nullptr);
-      if (done()) return;
-      mapping_bell.wait(ticket);
-    }
+      return done();
+    });
   }
 
   void push_job(const ExtractionJob& job) {

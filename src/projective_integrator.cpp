@@ -341,6 +341,12 @@ int row_halves_with_code_in(const std::uint16_t* codes, int width, int x0, int c
          (simd::any_u16(in_range & second_half) ? 2 : 0);
 }
 
+// m, m + 1, m - 1, m + 2, ...: the i-th of [0, n) from the middle out (i, n >= 0).
+inline int middle_out(int i, int n) {
+  const auto offset = static_cast<int>((static_cast<unsigned>(i) + 1) >> 1);
+  return static_cast<int>((static_cast<unsigned>(n) - 1) >> 1) + ((i & 1) ? offset : -offset);
+}
+
 // The rays of one row segment of the depth image, four at a time.
 float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayLanes& rays) {
   Lanes best = splat(kNoRay);
@@ -458,10 +464,6 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // cell (its silhouette leaves the rectangle's corners empty).
   bool passed_over = false;  // some ray was not clipped in pass 1
   const int tile_rows = (y1 - y0) / kTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
-  const auto middle_out = [](int i, int n) {  // m, m + 1, m - 1, m + 2, ... covers [0, n)
-    const auto offset = static_cast<int>((static_cast<unsigned>(i) + 1) >> 1);  // i, n >= 0
-    return static_cast<int>((static_cast<unsigned>(n) - 1) >> 1) + ((i & 1) ? offset : -offset);
-  };
   for (int row_i = 0; row_i < tile_rows; ++row_i) {
     const int ty = y0 + kTileH * middle_out(row_i, tile_rows);
     for (int col_i = 0; col_i < tile_cols; ++col_i) {
@@ -537,6 +539,37 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   }
   *rays += clipped;
   return best;
+}
+
+bool ProjectiveIntegrator::any_ray_crosses(const DepthRangeTable& depths, int x0, int y0, int x1,
+                                           int y1, const CellRays& cell) const {
+  // As exact_value's first pass: tiles from the middle out, only the rows (four
+  // rays each half) holding a code whose ray reaches the cell's near end a.
+  constexpr int kTileW = 8, kTileH = 4;
+  std::uint16_t reach_lo = 0, unused_hi = 0;
+  codes_reaching(cell.a, cell.b, 1.0f, 1.0f, false, &reach_lo, &unused_hi);
+  const int tile_rows = (y1 - y0) / kTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
+  for (int row_i = 0; row_i < tile_rows; ++row_i) {
+    const int ty = y0 + kTileH * middle_out(row_i, tile_rows);
+    for (int col_i = 0; col_i < tile_cols; ++col_i) {
+      const int tx = x0 + kTileW * middle_out(col_i, tile_cols);
+      const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
+      std::uint16_t lo_code = 0, hi_code = 0;
+      depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+      if (lo_code > hi_code || hi_code < reach_lo) continue;  // no ray, or all end before
+      const int count = ex - tx + 1;
+      for (int v = ty; v <= ey; ++v) {
+        const int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
+                                                   reach_lo, DepthRangeTable::kFar);
+        const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
+        if ((halves & 1) && row_best(row + tx, tx, v, std::min(count, 4), cell.rays) >= -1.0f)
+          return true;
+        if ((halves & 2) && row_best(row + tx + 4, tx + 4, v, count - 4, cell.rays) >= -1.0f)
+          return true;
+      }
+    }
+  }
+  return false;
 }
 
 bool ProjectiveIntegrator::free_across(std::uint16_t lo_code, std::uint16_t hi_code,
@@ -721,20 +754,25 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         const double b = zc + half.z();
         if (b < d_min_ || a > d_max_) continue;
         // The bulk of the frustum is free space or hidden behind surfaces. When
-        // every pixel ray near the cell is free across it, the cell is free:
-        // known for its whole block (then the centre pixel's ray, real and
-        // crossing the cell, saves projecting it), or from the depth range over
-        // the cell's footprint (best_value's bound is then exactly -1). When
-        // every such ray ends before the cell, nothing reaches it.
+        // every pixel ray near the cell is free across it, the cell is free if one
+        // of them, a real one, crosses it: known for its whole block (then the
+        // centre pixel's ray, real and crossing the cell, saves projecting it), or
+        // from the depth range over the cell's footprint (best_value's bound is
+        // then exactly -1). When every such ray ends before the cell, nothing
+        // reaches it.
         const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
-        const auto centre_ray = [&] {  // the centre pixel's ray is real and crosses the cell
+        // The code of the pixel nearest to the cell centre's image when its ray
+        // surely crosses the cell (quick), else kMissing.
+        const auto centre_code = [&]() -> std::uint16_t {
+          if (!quick) return DepthRangeTable::kMissing;
           const double inv_z = 1.0 / zc;
           const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-          return uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5 &&
-                 depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
-                                static_cast<std::size_t>(uc + 0.5)] != DepthRangeTable::kMissing;
+          if (!(uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5))
+            return DepthRangeTable::kMissing;
+          return depths
+              .codes()[static_cast<std::size_t>(vc + 0.5) * w + static_cast<std::size_t>(uc + 0.5)];
         };
-        if (block == kBlockFree && quick && centre_ray()) {
+        if (block == kBlockFree && centre_code() != DepthRangeTable::kMissing) {
           ++stats.cells_evaluated;
           ++stats.cells_block_free;
           grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
@@ -753,39 +791,21 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           ++stats.cells_hidden;  // every ray ends before the cell
           continue;
         }
-        if (free_across(lo_code, hi_code, static_cast<float>(b))) {
-          // What best_value gives here, without its scan.
-          ++stats.cells_evaluated;
-          ++stats.cells_box_free;
-          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
-          continue;
-        }
-        ++stats.cells_evaluated;
         cell.a = static_cast<float>(a);
         cell.b = static_cast<float>(b);
-        // An upper bound U from the footprint's depth range (exact when it says
-        // free). The cell gets U whenever the reference's value has U's sign: a
-        // value never below the reference's (near a surface, a little more
-        // occupied or less free: the safe side), at the sign the reference gives.
-        float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
-        const int upper_fixed = to_fixed(value);
-        if (value > -1.0f && upper_fixed >= 0) {
-          // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
-          // surface (or an unknown 0) where the rays that really cross the cell
-          // are all free. Probe rays give a lower bound; when it rounds to U's
-          // sign the sign is settled, else the rays are looked at one by one, as
-          // the reference does, until one does.
+        const auto set_cell_box = [&] {
           const Eigen::Vector3f cell_lo =
               (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
           for (int k = 0; k < 3; ++k) {
             cell.rays.lo[k] = splat(cell_lo[k]);
             cell.rays.hi[k] = splat(cell_lo[k] + cell_size);
           }
-          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
-          // Probes, four rays at once: through the centre, through points near
-          // the corners farthest from and nearest to the camera (the rays that
-          // leave the cell last and enter it first), and through the centre of
-          // the footprint.
+        };
+        // Probes, four rays at once: through the centre, through points near the
+        // corners farthest from and nearest to the camera (the rays that leave the
+        // cell last and enter it first), and through the centre of the footprint.
+        // Their largest m̂ in the cell (cell.rays set): a value some ray reaches.
+        const auto probe_value = [&] {
           const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
                      pzf = static_cast<float>(pc.z());
           const Lanes qx = splat(pxf) + probe_x, qy = splat(pyf) + probe_y,
@@ -811,13 +831,56 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
           const std::uint16_t* codes = depths.codes();
           const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
           const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
-          float lower = lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
+          return lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
+        };
+        // Whether a real ray reaches into the cell: the reference draws nothing into
+        // a cell that none crosses, and the footprint box is wider than the cell's
+        // silhouette. `centre_reaches` settles it for the centre pixel's ray, else
+        // the probes and then the footprint's rays are clipped until one crosses.
+        const auto crossed = [&](bool centre_reaches) {
+          if (centre_reaches) return true;
+          set_cell_box();
+          if (probe_value() >= -1.0f) return true;
+          return any_ray_crosses(depths, px0, py0, px1, py1, cell);
+        };
+        if (free_across(lo_code, hi_code, static_cast<float>(b))) {
+          // What best_value gives here, without its scan. Every ray near the cell
+          // is free past it: a real centre ray crosses it.
+          ++stats.cells_evaluated;
+          if (!crossed(centre_code() != DepthRangeTable::kMissing)) continue;
+          ++stats.cells_box_free;
+          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+          continue;
+        }
+        // An upper bound U from the footprint's depth range (exact when it says
+        // free). The cell gets U whenever the reference's value has U's sign: a
+        // value never below the reference's (near a surface, a little more
+        // occupied or less free: the safe side), at the sign the reference gives.
+        ++stats.cells_evaluated;
+        float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
+        const int upper_fixed = to_fixed(value);
+        if (value > -1.0f && upper_fixed >= 0) {
+          // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
+          // surface (or an unknown 0) where the rays that really cross the cell
+          // are all free. Probe rays give a lower bound; when it rounds to U's
+          // sign the sign is settled, else the rays are looked at one by one, as
+          // the reference does, until one does.
+          set_cell_box();
+          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
+          const float lower = probe_value();
           if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
             ++stats.cells_exact;
             const float found =
                 exact_value(depths, px0, py0, px1, py1, cell, lower, &stats.rays_exact);
             if (to_fixed(found) < cell.enough_fixed) value = found;  // a lower sign: exact
           }
+        } else if (value >= -1.0f) {
+          // U < 0, if a ray reaches the cell: the centre's does when it ends past b.
+          const std::uint16_t centre = centre_code();
+          const bool centre_reaches =
+              centre != DepthRangeTable::kMissing &&
+              (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
+          if (!crossed(centre_reaches)) continue;
         }
         if (value >= -1.0f) grid.write_max(x, y, z, quantize(value));
       }

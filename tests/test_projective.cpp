@@ -1,6 +1,7 @@
 // The fast (projective) integration path against the reference ray traversal:
-// same sign on >= 99% of the cells either touches, no occupied reference cell
-// missed, values never below the reference's, on generated and real frames.
+// same sign on >= 99.9% of the cells either touches (the issue asks 99%), no
+// occupied reference cell missed, no free value where no ray crosses, values
+// never below the reference's, on generated and real frames.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -63,7 +64,7 @@ Agreement compare_frame(const MapConfig& base_config, const CameraModel& camera,
   return a;
 }
 
-void expect_agreement(const Agreement& a, const std::string& what, double min_same = 0.99) {
+void expect_agreement(const Agreement& a, const std::string& what, double min_same = 0.999) {
   const double same = static_cast<double>(a.same_sign) / static_cast<double>(a.touched);
   std::printf(
       "[ %s ] touched %lld, same sign %.3f%%, occupied (reference) %lld, missed %lld, below the "
@@ -80,6 +81,9 @@ void expect_agreement(const Agreement& a, const std::string& what, double min_sa
   EXPECT_GT(a.touched, 1000);
   EXPECT_GE(same, min_same) << what;
   EXPECT_EQ(a.occupied_missed, 0) << what;
+  // Free where the reference has 0 (no ray crosses, or only a ray's end): a
+  // free value there would erase what earlier frames saw.
+  EXPECT_EQ(a.kinds[1][0], 0) << what;
   // The value is the upper bound wherever the sign allows: never below the
   // reference's, but for float rounding at the last 1/64 step.
   EXPECT_LE(a.largest_shortfall, 1) << what;
@@ -156,6 +160,49 @@ TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
     }
     expect_agreement(total, name);
   }
+}
+
+TEST(Projective, NoValueWhereNoRayCrosses) {
+  // Missing depth inside valid depth (stereo fails on thin or textureless
+  // parts): the footprint box of a cell seen through a hole holds valid pixels
+  // whose rays pass beside the cell. The reference draws nothing there; neither
+  // may the fast path (a free value would erase what earlier frames saw).
+  sim::Scenario scenario;
+  std::string error;
+  ASSERT_TRUE(sim::make_scenario("treeline", {320, 1.0}, &scenario, &error)) << error;
+  MapConfig config;
+  ASSERT_TRUE(hal::load_map_config(testing::source_path(scenario.config), &config, &error))
+      << error;
+  const CameraModel& camera = scenario.camera;
+  std::vector<std::uint16_t> depth(static_cast<std::size_t>(camera.width * camera.height));
+  std::vector<std::uint8_t> left(depth.size());
+  sim::Rng rng(11);
+  Agreement total;
+  for (std::size_t k = 0; k < scenario.trajectory.size(); k += scenario.trajectory.size() / 3) {
+    const auto& pose = scenario.trajectory[k].world_T_camera;
+    sim::render(scenario.scene, camera, pose, sim::RenderOptions{}, rng, depth.data(), left.data());
+    // Holes of 2..9 pixels square and one-pixel "wires", a fifth of the image.
+    for (int hole = 0; hole < 400; ++hole) {
+      const int side = 2 + static_cast<int>(rng.uniform() * 8.0);
+      const bool wire = hole % 8 == 0;
+      const int x0 = static_cast<int>(rng.uniform() * (camera.width - side));
+      const int y0 = static_cast<int>(rng.uniform() * (camera.height - side));
+      for (int y = y0; y < y0 + side; ++y)
+        for (int x = x0; x < (wire ? camera.width : x0 + side); ++x)
+          if (!wire || y == y0) depth[static_cast<std::size_t>(y * camera.width + x)] = 0;
+    }
+    const Agreement a =
+        compare_frame(config, camera, {depth.data(), nullptr, camera.width, camera.height}, pose);
+    total.touched += a.touched;
+    total.same_sign += a.same_sign;
+    total.occupied_reference += a.occupied_reference;
+    total.occupied_missed += a.occupied_missed;
+    total.below_reference += a.below_reference;
+    total.largest_shortfall = std::max(total.largest_shortfall, a.largest_shortfall);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) total.kinds[r][c] += a.kinds[r][c];
+  }
+  expect_agreement(total, "treeline with holes");
 }
 
 TEST(Projective, TinyImagesAgreeToo) {
@@ -248,10 +295,10 @@ TEST(Projective, AgreesWithReferenceOnRealFrames) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) total.kinds[r][c] += a.kinds[r][c];
   }
-  // Measured 98.83%: every disagreement is a cell the fast path calls free that no
-  // reference ray crosses (the footprint box is wider than the cell's silhouette
-  // at the edges of missing depth); no occupied cell differs. Held at 98.5%.
-  expect_agreement(total, "redkitchen", 0.985);
+  // Measured 100.000% (one cell of 217k: reference 0, fast occupied). Before
+  // free cells needed a crossing ray it was 98.65%: cells at the edges of missing
+  // depth called free through the footprint box's valid pixels.
+  expect_agreement(total, "redkitchen");
 }
 
 }  // namespace

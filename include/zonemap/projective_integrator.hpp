@@ -70,6 +70,10 @@ class ProjectiveIntegrator {
                       std::uint16_t* lo, std::uint16_t* hi) const;
   float exact_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                     const CellRays& cell, float best, std::int64_t* rays) const;
+  // Whether the ray of some usable pixel of the rectangle reaches into the cell
+  // (the reference draws nothing into a cell that none crosses).
+  bool any_ray_crosses(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
+                       const CellRays& cell) const;
 
   double cell_size_m_;
   // True when every ray of a depth in [lo, hi] (range-table codes) is still free

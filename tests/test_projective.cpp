@@ -24,6 +24,17 @@ struct Agreement {
   std::int64_t below_reference = 0;  // touched by both, fast value below the reference's
   int largest_shortfall = 0;         // by how much at most (1/64 units)
   std::int64_t kinds[3][3] = {};     // [reference sign + 1][fast sign + 1]
+
+  void add(const Agreement& a) {
+    touched += a.touched;
+    same_sign += a.same_sign;
+    occupied_reference += a.occupied_reference;
+    occupied_missed += a.occupied_missed;
+    below_reference += a.below_reference;
+    largest_shortfall = std::max(largest_shortfall, a.largest_shortfall);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) kinds[r][c] += a.kinds[r][c];
+  }
 };
 
 Agreement compare_frame(const MapConfig& base_config, const CameraModel& camera,
@@ -149,14 +160,7 @@ TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
                   left.data());
       const Agreement a =
           compare_frame(config, scenario.camera, {depth.data(), left.data(), 640, 480}, pose);
-      total.touched += a.touched;
-      total.same_sign += a.same_sign;
-      total.occupied_reference += a.occupied_reference;
-      total.occupied_missed += a.occupied_missed;
-      total.below_reference += a.below_reference;
-      total.largest_shortfall = std::max(total.largest_shortfall, a.largest_shortfall);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) total.kinds[i][j] += a.kinds[i][j];
+      total.add(a);
     }
     expect_agreement(total, name);
   }
@@ -193,14 +197,7 @@ TEST(Projective, NoValueWhereNoRayCrosses) {
     }
     const Agreement a =
         compare_frame(config, camera, {depth.data(), nullptr, camera.width, camera.height}, pose);
-    total.touched += a.touched;
-    total.same_sign += a.same_sign;
-    total.occupied_reference += a.occupied_reference;
-    total.occupied_missed += a.occupied_missed;
-    total.below_reference += a.below_reference;
-    total.largest_shortfall = std::max(total.largest_shortfall, a.largest_shortfall);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) total.kinds[r][c] += a.kinds[r][c];
+    total.add(a);
   }
   expect_agreement(total, "treeline with holes");
 }
@@ -244,10 +241,7 @@ TEST(Projective, TinyImagesAgreeToo) {
         }
       const Agreement a =
           compare_frame(config, camera, {crop_depth.data(), crop_left.data(), width, height}, pose);
-      total.touched += a.touched;
-      total.same_sign += a.same_sign;
-      total.occupied_missed += a.occupied_missed;
-      total.largest_shortfall = std::max(total.largest_shortfall, a.largest_shortfall);
+      total.add(a);
     }
     std::printf("[ %dx%d ] touched %lld, same sign %lld, occupied missed %lld, shortfall %d/64\n",
                 width, height, static_cast<long long>(total.touched),
@@ -286,14 +280,7 @@ TEST(Projective, AgreesWithReferenceOnRealFrames) {
     const CameraModel& camera = sequence.camera();
     const Agreement a = compare_frame(
         config, camera, {frame.depth.data(), nullptr, camera.width, camera.height}, pose);
-    total.touched += a.touched;
-    total.same_sign += a.same_sign;
-    total.occupied_reference += a.occupied_reference;
-    total.occupied_missed += a.occupied_missed;
-    total.below_reference += a.below_reference;
-    total.largest_shortfall = std::max(total.largest_shortfall, a.largest_shortfall);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) total.kinds[r][c] += a.kinds[r][c];
+    total.add(a);
   }
   // Measured 100.000% (one cell of 217k: reference 0, fast occupied). Before
   // free cells needed a crossing ray it was 98.65%: cells at the edges of missing

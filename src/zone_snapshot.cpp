@@ -24,23 +24,24 @@ void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold) {
   key_ = zone.key;
   origin_ = zone.origin;
   const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
-  std::fill_n(column_known_.get(), columns, std::uint8_t{0});
-  std::fill_n(occupied_.get(), (cells_ + 63) / 64, std::uint64_t{0});
+  std::uint8_t* known = column_known_.get();
+  std::fill_n(known, columns, std::uint8_t{0});
   const FusedCell* cells = zone.cells;
-  // Plane by plane: the column flags are an element-wise OR over planes and the
-  // bits are packed 64 cells at a time (both vectorise).
-  for (std::size_t plane = 0; plane < static_cast<std::size_t>(dims_[2]); ++plane) {
-    const FusedCell* p = cells + plane * columns;
-    std::uint8_t* known = column_known_.get();
-    for (std::size_t c = 0; c < columns; ++c) known[c] |= static_cast<std::uint8_t>(p[c] != 0);
-  }
+  // One pass over the cells (a zone is 4 MB at 0.5 m: read once, on the frame
+  // that discards it), 64 at a time: the occupied flags packed into a word, the
+  // non-zero flags OR-ed into their columns (both vectorise).
   const std::size_t full_words = cells_ / 64;
+  std::size_t column = 0;  // the column of the word's first cell
   for (std::size_t w = 0; w < full_words; ++w) {
     const FusedCell* p = cells + w * 64;
     // 64 flags as bytes (a vectorised compare), then 8 flags at a time into bits:
     // for bytes b_i in {0, 1}, (x * 0x0102040810204080) >> 56 = sum b_i 2^i.
     std::uint8_t flags[64];
-    for (int b = 0; b < 64; ++b) flags[b] = static_cast<std::uint8_t>(p[b] > occupied_threshold);
+    std::uint8_t nonzero[64];
+    for (int b = 0; b < 64; ++b) {
+      flags[b] = static_cast<std::uint8_t>(p[b] > occupied_threshold);
+      nonzero[b] = static_cast<std::uint8_t>(p[b] != 0);
+    }
     std::uint64_t word = 0;
     for (int k = 0; k < 8; ++k) {
       std::uint64_t x = 0;
@@ -48,9 +49,22 @@ void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold) {
       word |= ((x * 0x0102040810204080ull) >> 56) << (8 * k);
     }
     occupied_[w] = word;
+    if (column + 64 <= columns) {
+      for (int b = 0; b < 64; ++b) known[column + static_cast<std::size_t>(b)] |= nonzero[b];
+      column += 64;
+      if (column == columns) column = 0;
+    } else {  // the word runs into the next plane
+      for (int b = 0; b < 64; ++b) {
+        known[column] |= nonzero[b];
+        if (++column == columns) column = 0;
+      }
+    }
   }
+  if (full_words * 64 < cells_) occupied_[full_words] = 0;
   for (std::size_t i = full_words * 64; i < cells_; ++i) {
     if (cells[i] > occupied_threshold) occupied_[i >> 6] |= std::uint64_t{1} << (i & 63);
+    known[column] |= static_cast<std::uint8_t>(cells[i] != 0);
+    if (++column == columns) column = 0;
   }
 }
 

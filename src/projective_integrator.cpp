@@ -773,15 +773,21 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
         // reaches it.
         const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
         // The code of the pixel nearest to the cell centre's image when its ray
-        // surely crosses the cell (quick), else kMissing.
+        // surely crosses the cell (quick), else kMissing; looked up once a cell
+        // (the block test, the box test and U < 0 may each ask).
+        int centre_looked_up = -1;
         const auto centre_code = [&]() -> std::uint16_t {
-          if (!quick) return DepthRangeTable::kMissing;
-          const double inv_z = 1.0 / zc;
-          const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-          if (!(uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5))
-            return DepthRangeTable::kMissing;
-          return depths
-              .codes()[static_cast<std::size_t>(vc + 0.5) * w + static_cast<std::size_t>(uc + 0.5)];
+          if (centre_looked_up >= 0) return static_cast<std::uint16_t>(centre_looked_up);
+          std::uint16_t code = DepthRangeTable::kMissing;
+          if (quick) {
+            const double inv_z = 1.0 / zc;
+            const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
+            if (uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5)
+              code = depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
+                                    static_cast<std::size_t>(uc + 0.5)];
+          }
+          centre_looked_up = code;
+          return code;
         };
         if (block == kBlockFree && centre_code() != DepthRangeTable::kMissing) {
           ++stats.cells_evaluated;

@@ -13,6 +13,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -97,6 +98,7 @@ class InstructionCounter {
     attr.exclude_kernel = 1;
     attr.exclude_hv = 1;
     fd_ = static_cast<int>(syscall(SYS_perf_event_open, &attr, 0, -1, -1, 0));
+    if (fd_ < 0) error_ = errno;
   }
   ~InstructionCounter() {
     if (fd_ >= 0) close(fd_);
@@ -104,6 +106,8 @@ class InstructionCounter {
   InstructionCounter(const InstructionCounter&) = delete;
   InstructionCounter& operator=(const InstructionCounter&) = delete;
   bool valid() const { return fd_ >= 0; }
+  // Why there is no counter (errno of perf_event_open), 0 when there is one.
+  int error() const { return error_; }
   // The running count (0 when unavailable).
   std::uint64_t read_count() const {
     std::uint64_t count = 0;
@@ -114,7 +118,14 @@ class InstructionCounter {
 
  private:
   int fd_ = -1;
+  int error_ = 0;
 };
+
+// One counter for the whole run (opened at first use).
+const InstructionCounter& instruction_counter() {
+  static const InstructionCounter counter;
+  return counter;
+}
 
 struct Timing {
   double median_ms = 0, p99_ms = 0;
@@ -138,7 +149,7 @@ Timing summarise(std::vector<double> ms, double cells) {
 
 Timing time_zonemap(const Frames& f, const MapConfig& config) {
   Mapper mapper(config, f.camera);
-  static const InstructionCounter counter;
+  const InstructionCounter& counter = instruction_counter();
   std::vector<double> ms, minstr;
   double cells = 0, block_free = 0, hidden = 0, exact_cells = 0, exact_rays = 0;
   for (std::size_t i = 0; i < f.poses.size(); ++i) {
@@ -245,6 +256,16 @@ void comparison(int frame_count) {
       "generated tree-line flight, d_max 50 m, %d frames; ms median / p99; M instr: million\n"
       "instructions of the median frame (user space; steady when milliseconds are not)\n\n",
       frame_count);
+  if (!instruction_counter().valid()) {
+    // Say why the column is empty, and how to count without hardware counters.
+    std::printf(
+        "M instr \"-\": no hardware instruction counter (perf_event_open: %s; a VM\n"
+        "without a PMU says so, perf_event_paranoid > 2 gives a permission error). Count them\n"
+        "with valgrind: --tool=callgrind --toggle-collect='zonemap::Mapper::integrate*'\n"
+        "build/release/zonemap-bench --projective 0.5 --frames 12, Ir / 12 (the first frame\n"
+        "also clears the new zones: ~4 M at 0.5 m)\n\n",
+        std::strerror(instruction_counter().error()));
+  }
   const Frames f640 = make_frames(640, frame_count);
   std::printf("%-6s %-22s %-22s %-22s %-10s %-12s %-9s %-8s %-18s\n", "cell", "zonemap projective",
               "zonemap reference", "octomap 1.9.7", "ratio", "cells/frame", "ns/cell", "M instr",

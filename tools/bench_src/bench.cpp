@@ -262,8 +262,8 @@ void comparison(int frame_count) {
         "M instr \"-\": no hardware instruction counter (perf_event_open: %s; a VM\n"
         "without a PMU says so, perf_event_paranoid > 2 gives a permission error). Count them\n"
         "with valgrind: --tool=callgrind --toggle-collect='zonemap::Mapper::integrate*'\n"
-        "build/release/zonemap-bench --projective 0.5 --frames 12, Ir / 12 (the first frame\n"
-        "also clears the new zones: ~4 M at 0.5 m)\n\n",
+        "build/release/zonemap-bench --projective 0.5 --frames 12, Ir / 12 (this includes\n"
+        "the first frame's clearing of its new zones: ~4 M a frame at 0.5 m)\n\n",
         std::strerror(instruction_counter().error()));
   }
   const Frames f640 = make_frames(640, frame_count);

@@ -4,11 +4,14 @@
 #include <cmath>
 #include <limits>
 
+#include "zonemap/zone_map.hpp"
+
 namespace zonemap {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kStep = 2.0 * kPi / kObstacleSectors;
 
 // Distance along the unit ray (0,0)+t*dir to the rectangle [lo, hi], +inf if missed.
 double ray_entry(const Eigen::Vector2d& dir, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
@@ -26,108 +29,227 @@ double ray_entry(const Eigen::Vector2d& dir, const Eigen::Vector2d& lo, const Ei
   return t_near <= t_far ? t_near : kInf;
 }
 
-// Clockwise angle from `forward` to `v` in [0, 2 pi), both in (forward, right) terms.
+// Clockwise angle from forward to v in [0, 2 pi), v in (forward, right) terms.
 double clockwise_angle(const Eigen::Vector2d& v) {
   double a = std::atan2(v.y(), v.x());
   if (a < 0.0) a += 2.0 * kPi;
   return a;
 }
 
-}  // namespace
+// The sector holding a bearing (radians, clockwise from forward, any turn):
+// sector s covers [s - 1/2, s + 1/2) steps.
+int sector_of(double bearing) {
+  return static_cast<int>(std::floor(bearing / kStep + 0.5));
+}
+int wrap_sector(int s) {
+  return ((s % kObstacleSectors) + kObstacleSectors) % kObstacleSectors;
+}
 
-ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count,
-                                     const Eigen::Isometry3d& world_T_body, bool world_z_up,
-                                     const SectorConfig& config) {
-  ObstacleDistances out;
-  out.min_distance_cm = static_cast<std::uint16_t>(std::lround(config.min_distance_m * 100.0));
-  out.max_distance_cm = static_cast<std::uint16_t>(
-      std::clamp(std::lround(config.max_distance_m * 100.0), 1L, 65534L));
-  double nearest[kObstacleSectors];
-  std::fill(std::begin(nearest), std::end(nearest), kInf);
+// Heights measured upwards whatever the world's convention.
+double up_sign(bool world_z_up) {
+  return world_z_up ? 1.0 : -1.0;
+}
 
-  // Horizontal (forward, right) axes of the body in the world frame.
-  const Eigen::Vector3d down = world_z_up ? Eigen::Vector3d(0, 0, -1) : Eigen::Vector3d(0, 0, 1);
-  Eigen::Vector3d forward = world_T_body.linear().col(0);
-  forward.z() = 0.0;
-  if (forward.norm() < 1e-6) forward = world_T_body.linear().col(2);  // looking straight down
-  forward.z() = 0.0;
-  forward.normalize();
-  const Eigen::Vector3d right = down.cross(forward);
-  const Eigen::Vector3d position = world_T_body.translation();
-  // Heights measured upwards whatever the world's convention.
-  const double up_sign = world_z_up ? 1.0 : -1.0;
-  const double vehicle_height = up_sign * position.z();
-  const double step = 2.0 * kPi / kObstacleSectors;
+bool in_band(const ObstacleBox& box, double vehicle_height, bool world_z_up,
+             const SectorConfig& config) {
+  const double u = up_sign(world_z_up);
+  const double h0 = std::min(u * box.min.z(), u * box.max.z());
+  const double h1 = std::max(u * box.min.z(), u * box.max.z());
+  return h1 >= vehicle_height - config.band_below_m && h0 <= vehicle_height + config.band_above_m;
+}
 
-  for (std::size_t b = 0; b < count; ++b) {
-    const ObstacleBox& box = boxes[b];
-    if (box.kind != FeatureKind::kObstacle) continue;
-    const double h0 = std::min(up_sign * box.min.z(), up_sign * box.max.z());
-    const double h1 = std::max(up_sign * box.min.z(), up_sign * box.max.z());
-    if (h1 < vehicle_height - config.band_below_m || h0 > vehicle_height + config.band_above_m) {
-      continue;
-    }
-    // The rectangle's corners in (forward, right) coordinates about the vehicle.
-    Eigen::Vector2d corners[4];
-    int k = 0;
-    for (const double x : {box.min.x(), box.max.x()}) {
-      for (const double y : {box.min.y(), box.max.y()}) {
-        const Eigen::Vector3d d = Eigen::Vector3d(x, y, position.z()) - position;
-        corners[k++] = {d.dot(forward), d.dot(right)};
-      }
-    }
-    // In body axes the rectangle is rotated: clip each sector's wedge against it
-    // in the world-aligned frame instead, where it is axis-aligned.
-    const Eigen::Vector2d lo(box.min.x() - position.x(), box.min.y() - position.y());
-    const Eigen::Vector2d hi(box.max.x() - position.x(), box.max.y() - position.y());
-    const Eigen::Vector2d closest = lo.cwiseMax(Eigen::Vector2d::Zero()).cwiseMin(hi);
-    const double closest_distance = closest.norm();
-    if (closest_distance > config.max_distance_m) continue;
-    if (closest_distance == 0.0) {  // inside the box's footprint: everything is blocked
-      std::fill(std::begin(nearest), std::end(nearest), 0.0);
-      break;
-    }
-    const Eigen::Vector2d closest_body(Eigen::Vector3d(closest.x(), closest.y(), 0.0).dot(forward),
-                                       Eigen::Vector3d(closest.x(), closest.y(), 0.0).dot(right));
-    const double closest_angle = clockwise_angle(closest_body);
-    // The sectors the rectangle spans: from its corners' angular extent (the
-    // rectangle does not contain the vehicle, so it spans less than 180 degrees).
-    double a_min = kInf, a_max = -kInf;
-    const double reference = closest_angle;
-    for (const Eigen::Vector2d& c : corners) {
-      double a = clockwise_angle(c) - reference;
+// Folds one world rectangle [lo, hi] (relative to the vehicle) into the sectors'
+// nearest distances. Returns false when the vehicle stands inside it.
+bool add_rectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, const HorizontalAxes& axes,
+                   double max_distance_m, double* nearest) {
+  const Eigen::Vector2d closest = lo.cwiseMax(Eigen::Vector2d::Zero()).cwiseMin(hi);
+  const double closest_distance = closest.norm();
+  if (closest_distance > max_distance_m) return true;
+  if (closest_distance == 0.0) return false;
+  const auto to_body = [&](const Eigen::Vector2d& w) {
+    const Eigen::Vector3d w3(w.x(), w.y(), 0.0);
+    return Eigen::Vector2d(w3.dot(axes.forward), w3.dot(axes.right));
+  };
+  const double closest_angle = clockwise_angle(to_body(closest));
+  // The rectangle does not hold the vehicle, so it spans less than 180 degrees
+  // about its closest point's bearing.
+  double a_min = kInf, a_max = -kInf;
+  for (const double x : {lo.x(), hi.x()}) {
+    for (const double y : {lo.y(), hi.y()}) {
+      double a = clockwise_angle(to_body({x, y})) - closest_angle;
       if (a > kPi) a -= 2.0 * kPi;
       if (a < -kPi) a += 2.0 * kPi;
       a_min = std::min(a_min, a);
       a_max = std::max(a_max, a);
     }
-    const int s_first = static_cast<int>(std::floor((reference + a_min) / step));
-    const int s_last = static_cast<int>(std::floor((reference + a_max) / step));
-    for (int s_unwrapped = s_first; s_unwrapped <= s_last; ++s_unwrapped) {
-      const int s = ((s_unwrapped % kObstacleSectors) + kObstacleSectors) % kObstacleSectors;
-      // Nearest point of the rectangle inside the wedge [s*step, (s+1)*step):
-      // the rectangle's closest point if its bearing is inside, else where one of
-      // the wedge's edges enters the rectangle.
-      double d = kInf;
-      const double w0 = s * step, w1 = (s + 1) * step;
-      if (closest_angle >= w0 && closest_angle < w1) d = closest_distance;
-      for (const double edge : {w0, w1}) {
-        const Eigen::Vector3d dir3 = forward * std::cos(edge) + right * std::sin(edge);
-        d = std::min(d, ray_entry(Eigen::Vector2d(dir3.x(), dir3.y()), lo, hi));
-      }
-      nearest[s] = std::min(nearest[s], d);
-    }
   }
+  const int closest_sector = wrap_sector(sector_of(closest_angle));
+  const int s_first = sector_of(closest_angle + a_min);
+  const int s_last = sector_of(closest_angle + a_max);
+  for (int s_unwrapped = s_first; s_unwrapped <= s_last; ++s_unwrapped) {
+    const int s = wrap_sector(s_unwrapped);
+    // Nearest point inside the wedge: the closest point if its bearing is inside,
+    // else where one of the wedge's edges enters the rectangle.
+    double d = s == closest_sector ? closest_distance : kInf;
+    for (const double edge : {(s_unwrapped - 0.5) * kStep, (s_unwrapped + 0.5) * kStep}) {
+      const Eigen::Vector3d dir3 = axes.forward * std::cos(edge) + axes.right * std::sin(edge);
+      d = std::min(d, ray_entry(Eigen::Vector2d(dir3.x(), dir3.y()), lo, hi));
+    }
+    nearest[s] = std::min(nearest[s], d);
+  }
+  return true;
+}
+
+// Calls fn(lo, hi) (world x-y) for each footprint rectangle of box b, or the box.
+template <typename Fn>
+void for_each_rectangle(const ObstacleBox* boxes, std::size_t b, const FootprintView& footprints,
+                        Fn&& fn) {
+  const std::uint32_t n = footprints.counts != nullptr ? footprints.counts[b] : 0;
+  if (n == 0 || footprints.rects == nullptr || footprints.offsets == nullptr) {
+    fn(Eigen::Vector2d(boxes[b].min.x(), boxes[b].min.y()),
+       Eigen::Vector2d(boxes[b].max.x(), boxes[b].max.y()));
+    return;
+  }
+  for (std::uint32_t r = 0; r < n; ++r) {
+    const FootprintRect& rect = footprints.rects[footprints.offsets[b] + r];
+    fn(Eigen::Vector2d(rect.x0, rect.y0), Eigen::Vector2d(rect.x1, rect.y1));
+  }
+}
+
+}  // namespace
+
+HorizontalAxes horizontal_axes(const Eigen::Isometry3d& world_T_body, bool world_z_up) {
+  HorizontalAxes axes;
+  axes.down = world_z_up ? Eigen::Vector3d(0, 0, -1) : Eigen::Vector3d(0, 0, 1);
+  Eigen::Vector3d forward = world_T_body.linear().col(0);
+  forward.z() = 0.0;
+  if (forward.norm() < 1e-6) forward = -world_T_body.linear().col(2);  // nose straight down
+  forward.z() = 0.0;
+  axes.forward = forward.normalized();
+  axes.right = axes.down.cross(axes.forward);
+  return axes;
+}
+
+ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count,
+                                     const FootprintView& footprints,
+                                     const Eigen::Isometry3d& world_T_body, bool world_z_up,
+                                     const SectorConfig& config, const SectorMask& observed) {
+  ObstacleDistances out;
+  out.min_distance_cm = static_cast<std::uint16_t>(std::lround(config.min_distance_m * 100.0));
+  out.max_distance_cm = static_cast<std::uint16_t>(
+      std::clamp(std::lround(config.max_distance_m * 100.0), 1L, 65533L));
+  double nearest[kObstacleSectors];
+  std::fill(std::begin(nearest), std::end(nearest), kInf);
+  const HorizontalAxes axes = horizontal_axes(world_T_body, world_z_up);
+  const Eigen::Vector3d position = world_T_body.translation();
+  const double vehicle_height = up_sign(world_z_up) * position.z();
+  bool inside = false;
+  for (std::size_t b = 0; b < count && !inside; ++b) {
+    if (boxes[b].kind != FeatureKind::kObstacle) continue;
+    if (!in_band(boxes[b], vehicle_height, world_z_up, config)) continue;
+    for_each_rectangle(
+        boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+          const Eigen::Vector2d p = position.head<2>();
+          if (!inside)
+            inside = !add_rectangle(lo - p, hi - p, axes, config.max_distance_m, nearest);
+        });
+  }
+  if (inside) std::fill(std::begin(nearest), std::end(nearest), 0.0);  // everything is blocked
   for (int s = 0; s < kObstacleSectors; ++s) {
     if (nearest[s] <= config.max_distance_m) {
       const double cm = std::max(nearest[s], config.min_distance_m) * 100.0;
-      out.distances_cm[s] = static_cast<std::uint16_t>(std::min(std::floor(cm), 65534.0));
+      out.distances_cm[s] = static_cast<std::uint16_t>(std::min(std::floor(cm), 65533.0));
       ++out.sectors_with_obstacle;
-    } else {
+    } else if (observed[static_cast<std::size_t>(s)]) {
       out.distances_cm[s] = static_cast<std::uint16_t>(out.max_distance_cm + 1);
+    } else {
+      out.distances_cm[s] = kSectorUnknown;
+      ++out.sectors_unknown;
     }
   }
   return out;
+}
+
+SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
+                            const Eigen::Isometry3d& world_T_body, bool world_z_up,
+                            const SectorConfig& config) {
+  SectorMask observed{};
+  const HorizontalAxes axes = horizontal_axes(world_T_body, world_z_up);
+  const Eigen::Vector3d position = world_T_body.translation();
+  const Eigen::Vector3d up = -axes.down;
+  const double heights[3] = {-config.band_below_m, 0.0, config.band_above_m};
+  const int steps =
+      static_cast<int>(std::ceil((config.max_distance_m - config.min_distance_m) / cell_size_m));
+  const auto cell_of = [cell_size_m](const Eigen::Vector3d& p) {
+    return CellIndex{static_cast<std::int32_t>(std::floor(p.x() / cell_size_m)),
+                     static_cast<std::int32_t>(std::floor(p.y() / cell_size_m)),
+                     static_cast<std::int32_t>(std::floor(p.z() / cell_size_m))};
+  };
+  for (int s = 0; s < kObstacleSectors; ++s) {
+    const double bearing = s * kStep;
+    const Eigen::Vector3d dir = axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
+    int inside = 0, seen = 0;
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d along = position + dir * (config.min_distance_m + k * cell_size_m);
+      bool any_inside = false, any_seen = false;
+      for (const double h : heights) {
+        FusedCell v = 0;
+        if (zones.value_at(cell_of(along + up * h), &v)) {
+          any_inside = true;
+          any_seen = any_seen || v != 0;
+        }
+      }
+      inside += any_inside ? 1 : 0;
+      seen += any_seen ? 1 : 0;
+    }
+    observed[static_cast<std::size_t>(s)] = inside >= 4 && 2 * seen >= inside;
+  }
+  return observed;
+}
+
+std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
+                              const FootprintView& footprints,
+                              const Eigen::Isometry3d& world_T_body, bool world_z_up,
+                              const SectorConfig& config, NearestObstacle* out,
+                              std::size_t capacity) {
+  const Eigen::Vector3d position = world_T_body.translation();
+  const double vehicle_height = up_sign(world_z_up) * position.z();
+  std::size_t n = 0;
+  for (std::size_t b = 0; b < count && capacity > 0; ++b) {
+    const ObstacleBox& box = boxes[b];
+    if (box.kind != FeatureKind::kObstacle || !in_band(box, vehicle_height, world_z_up, config)) {
+      continue;
+    }
+    Eigen::Vector3d best = Eigen::Vector3d::Zero();
+    double best_distance = kInf;
+    for_each_rectangle(
+        boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+          const Eigen::Vector3d lo3(lo.x(), lo.y(), box.min.z()), hi3(hi.x(), hi.y(), box.max.z());
+          const Eigen::Vector3d q = position.cwiseMax(lo3).cwiseMin(hi3);
+          const double d = (q - position).norm();
+          if (d < best_distance) {
+            best_distance = d;
+            best = q;
+          }
+        });
+    if (best_distance > config.max_distance_m) continue;
+    NearestObstacle o;
+    o.id = box.id;
+    o.distance_m = best_distance;
+    o.body_frd = world_T_body.inverse() * best;
+    // Kept nearest first, at most `capacity`: the farthest kept gives way.
+    if (n < capacity) {
+      out[n++] = o;
+    } else if (best_distance < out[n - 1].distance_m) {
+      out[n - 1] = o;
+    } else {
+      continue;
+    }
+    for (std::size_t i = n - 1; i > 0 && out[i - 1].distance_m > out[i].distance_m; --i) {
+      std::swap(out[i - 1], out[i]);
+    }
+  }
+  return n;
 }
 
 }  // namespace zonemap

@@ -38,15 +38,21 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
-// The sequence's camera poses as an INS would log them (body = camera here).
+// The sequence's camera poses as an INS would log them: the body's pose, the
+// camera on the sequence's mount (camera.yaml names none: looking along the nose).
 void write_ins_log(const hal::ReplaySequence& sequence, const std::string& path) {
   lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
   ASSERT_NE(log, nullptr);
+  const Eigen::Isometry3d camera_T_body = sequence.camera().body_T_camera.inverse();
   for (const PoseSample& p : sequence.poses().samples()) {
+    Eigen::Isometry3d world_T_camera = Eigen::Isometry3d::Identity();
+    world_T_camera.linear() = p.attitude.toRotationMatrix();
+    world_T_camera.translation() = p.position;
+    const Eigen::Isometry3d world_T_body = world_T_camera * camera_T_body;
     InsSolution s;
     s.time_s = p.time_s;
-    s.position_m = p.position;
-    s.attitude = p.attitude;
+    s.position_m = world_T_body.translation();
+    s.attitude = Eigen::Quaterniond(world_T_body.linear()).normalized();
     s.attitude_valid = s.position_valid = true;
     s.position_sigma_m = 0.1;
     const auto utime = static_cast<std::int64_t>(std::llround(p.time_s * 1e6));
@@ -220,8 +226,12 @@ TEST(Daemon, ReplayWithLcmLogPosesGivesTheReplaysBoxesAndMavlinkOut) {
   EXPECT_NE(stats.find("\"ins_poses_out\": 40"), std::string::npos) << stats;
 
   // OBSTACLE_DISTANCE frames reached the "autopilot", valid, with the posts ahead.
-  int frames = 0, with_obstacle = 0;
+  int frames = 0, with_obstacle = 0, heartbeats = 0;
   for (auto d = autopilot.receive(100); !d.empty(); d = autopilot.receive(100)) {
+    ASSERT_GE(d.size(), 12u);
+    const int id = d[7] | d[8] << 8 | d[9] << 16;
+    if (id == 0) ++heartbeats;
+    if (id != static_cast<int>(mavlink::kObstacleDistanceId)) continue;
     mavlink::DecodedObstacleDistance m;
     ASSERT_TRUE(mavlink::decode_obstacle_distance(d.data(), d.size(), &m));
     ++frames;
@@ -234,6 +244,7 @@ TEST(Daemon, ReplayWithLcmLogPosesGivesTheReplaysBoxesAndMavlinkOut) {
   }
   EXPECT_GE(frames, 5);
   EXPECT_GE(with_obstacle, 1);
+  EXPECT_GE(heartbeats, 1);
 }
 
 TEST(Daemon, SigtermEndsTheRunCleanlyWithOutputs) {

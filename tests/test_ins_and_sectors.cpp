@@ -133,11 +133,20 @@ double sampled_nearest(const ObstacleBox& b, const Eigen::Vector3d& p, double he
       double a = std::atan2(y, x) - heading;
       while (a < 0) a += 2 * M_PI;
       while (a >= 2 * M_PI) a -= 2 * M_PI;
-      if (static_cast<int>(a / step) == sector) best = std::min(best, std::hypot(x, y));
+      // Sector s is centred on s * step.
+      if (static_cast<int>(std::floor(a / step + 0.5)) % 72 == sector)
+        best = std::min(best, std::hypot(x, y));
     }
   }
   return best;
 }
+
+SectorMask all_seen() {
+  SectorMask m;
+  m.fill(true);
+  return m;
+}
+const SectorMask kAllSeen = all_seen();
 
 }  // namespace
 
@@ -147,27 +156,95 @@ TEST(ObstacleDistance, SectorsInTheBodyFrameNearestFirst) {
   body.translation() = Eigen::Vector3d(0, 0, -20);         // 20 m up
   // A post 10 m ahead (north), 1 m wide, from the ground to 30 m high.
   ObstacleBox post = box({10, -0.5, -30}, {11, 0.5, 0});
-  ObstacleDistances d = obstacle_distances(&post, 1, body, false, config);
+  ObstacleDistances d = obstacle_distances(&post, 1, {}, body, false, config, kAllSeen);
+  // Sector 0 is [-2.5, 2.5) deg; the post spans +-2.86 deg: sectors 71, 0 and 1.
   EXPECT_EQ(d.distances_cm[0], 1000);
+  EXPECT_EQ(d.distances_cm[1], 1000);
   EXPECT_EQ(d.distances_cm[71], 1000);
   EXPECT_EQ(d.distances_cm[36], d.max_distance_cm + 1);
-  EXPECT_EQ(d.sectors_with_obstacle, 2);
-  // Heading east: the post is now on the left (counter-clockwise, sectors ~54..71).
+  EXPECT_EQ(d.sectors_with_obstacle, 3);
+  // Heading east: the post is now 90 deg to the left (270 deg clockwise: sector 54).
   body.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  d = obstacle_distances(&post, 1, body, false, config);
-  EXPECT_EQ(d.distances_cm[53], 1000);  // 270 deg clockwise = 90 deg left
+  d = obstacle_distances(&post, 1, {}, body, false, config, kAllSeen);
   EXPECT_EQ(d.distances_cm[54], 1000);
+  EXPECT_EQ(d.distances_cm[53], 1000);
+  EXPECT_EQ(d.distances_cm[55], 1000);
+  EXPECT_EQ(d.sectors_with_obstacle, 3);
   EXPECT_EQ(d.distances_cm[0], d.max_distance_cm + 1);
   // Out of the vertical band (all below 30 m under the vehicle) or ground: nothing.
   ObstacleBox low = box({10, -0.5, 0}, {11, 0.5, 5});
   ObstacleBox ground = box({10, -0.5, -30}, {11, 0.5, 0}, FeatureKind::kGround);
-  EXPECT_EQ(obstacle_distances(&low, 1, body, false, config).sectors_with_obstacle, 0);
-  EXPECT_EQ(obstacle_distances(&ground, 1, body, false, config).sectors_with_obstacle, 0);
+  EXPECT_EQ(obstacle_distances(&low, 1, {}, body, false, config, kAllSeen).sectors_with_obstacle,
+            0);
+  EXPECT_EQ(obstacle_distances(&ground, 1, {}, body, false, config, kAllSeen).sectors_with_obstacle,
+            0);
   // Inside a box's footprint: every sector blocked at the minimum distance.
   ObstacleBox around = box({-1, -1, -25}, {1, 1, -15});
-  d = obstacle_distances(&around, 1, body, false, config);
+  d = obstacle_distances(&around, 1, {}, body, false, config, kAllSeen);
   EXPECT_EQ(d.sectors_with_obstacle, 72);
   EXPECT_EQ(d.distances_cm[17], d.min_distance_cm);
+}
+
+TEST(ObstacleDistance, UnseenSectorsAreUnknownButRememberedObstaclesStay) {
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -20);
+  ObstacleBox behind = box({-11, -0.5, -30}, {-10, 0.5, 0});  // 10 m behind
+  SectorMask ahead_only{};
+  for (int s : {70, 71, 0, 1, 2}) ahead_only[static_cast<std::size_t>(s)] = true;
+  const ObstacleDistances d = obstacle_distances(&behind, 1, {}, body, false, config, ahead_only);
+  EXPECT_EQ(d.distances_cm[36], 1000);                  // not seen now, but remembered: an obstacle
+  EXPECT_EQ(d.distances_cm[0], d.max_distance_cm + 1);  // seen: free
+  EXPECT_EQ(d.distances_cm[18], kSectorUnknown);        // never seen: unknown, not free
+  EXPECT_EQ(d.sectors_unknown, 72 - 5 - 3);
+}
+
+TEST(ObstacleDistance, FootprintRectanglesAreTighterThanTheBox) {
+  // An L-shaped obstacle: its box covers the vehicle's right-front, its footprint
+  // only a wall 20 m ahead and a wall 20 m to the right.
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -5);
+  const ObstacleBox l = box({5, 5, -10}, {20, 20, 0});
+  const FootprintRect rects[2] = {{19, 5, 20, 20}, {5, 19, 20, 20}};
+  const std::uint32_t offsets[1] = {0}, counts[1] = {2};
+  const ObstacleDistances loose = obstacle_distances(&l, 1, {}, body, false, config, kAllSeen);
+  const ObstacleDistances tight =
+      obstacle_distances(&l, 1, {rects, offsets, counts}, body, false, config, kAllSeen);
+  // Sector 9 (45 deg, towards the box's near corner at (5, 5)).
+  EXPECT_EQ(loose.distances_cm[9], 707);
+  // The wedge's edge at 42.5 deg meets the L's inner face x = 19 at 25.77 m.
+  EXPECT_EQ(tight.distances_cm[9], 2577);
+  NearestObstacle nearest[4];
+  ASSERT_EQ(nearest_obstacles(&l, 1, {rects, offsets, counts}, body, false, config, nearest, 4),
+            1u);
+  // The nearest point of the L's prisms: (19, 5, -5) in NED = body FRD here.
+  EXPECT_NEAR(nearest[0].body_frd.x(), 19.0, 1e-9);
+  EXPECT_NEAR(nearest[0].body_frd.y(), 5.0, 1e-9);
+  EXPECT_NEAR(nearest[0].body_frd.z(), 0.0, 1e-9);
+}
+
+TEST(ObstacleDistance, NearestObstaclesInTheBodyFrameNearestFirst) {
+  SectorConfig config;
+  // NED, heading east (body x = east), 10 m up.
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  body.translation() = Eigen::Vector3d(0, 0, -10);
+  ObstacleBox boxes[3] = {box({30, -1, -15}, {31, 1, 0}),   // 30 m north: on the left
+                          box({-1, 8, -15}, {1, 9, 0}),     // 8 m east: ahead
+                          box({-1, 60, -15}, {1, 61, 0})};  // beyond max distance
+  boxes[0].id = 7;
+  boxes[1].id = 9;
+  NearestObstacle out[8];
+  ASSERT_EQ(nearest_obstacles(boxes, 3, {}, body, false, config, out, 8), 2u);
+  EXPECT_EQ(out[0].id, 9u);
+  EXPECT_NEAR(out[0].body_frd.x(), 8.0, 1e-9);  // forward
+  EXPECT_NEAR(out[0].body_frd.y(), 0.0, 1e-9);
+  EXPECT_EQ(out[1].id, 7u);
+  EXPECT_NEAR(out[1].body_frd.x(), 0.0, 1e-9);
+  EXPECT_NEAR(out[1].body_frd.y(), -30.0, 1e-9);  // left = negative right
+  ASSERT_EQ(nearest_obstacles(boxes, 3, {}, body, false, config, out, 1), 1u);
+  EXPECT_EQ(out[0].id, 9u);  // capacity 1 keeps the nearest
 }
 
 TEST(ObstacleDistance, ExactWedgeDistanceAgreesWithDenseSampling) {
@@ -182,7 +259,7 @@ TEST(ObstacleDistance, ExactWedgeDistanceAgreesWithDenseSampling) {
     Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
     body.linear() = Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     body.translation() = Eigen::Vector3d(0, 0, -5);
-    const ObstacleDistances d = obstacle_distances(&b, 1, body, false, config);
+    const ObstacleDistances d = obstacle_distances(&b, 1, {}, body, false, config, kAllSeen);
     for (int s = 0; s < 72; ++s) {
       const double sampled = sampled_nearest(b, body.translation(), heading, s);
       if (sampled > config.max_distance_m) {
@@ -223,4 +300,65 @@ TEST(Mavlink, CrcCheckValueAndObstacleDistanceRoundTrip) {
     corrupt[i] ^= 0x10;
     EXPECT_FALSE(mavlink::decode_obstacle_distance(corrupt, n, &out)) << "byte " << i;
   }
+}
+
+namespace {
+
+// CRC_EXTRA from a message's definition, as the MAVLink generator computes it:
+// the name and every base field's type and name (wire order), array lengths too.
+std::uint8_t crc_extra(const char* name,
+                       std::initializer_list<std::pair<const char*, const char*>> fields) {
+  std::string text = std::string(name) + " ";
+  std::uint16_t crc =
+      mavlink::crc_x25(reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+  for (const auto& [type, field] : fields) {
+    const std::string t = std::string(type) + " ", f = std::string(field) + " ";
+    crc = mavlink::crc_x25(reinterpret_cast<const std::uint8_t*>(t.data()), t.size(), crc);
+    crc = mavlink::crc_x25(reinterpret_cast<const std::uint8_t*>(f.data()), f.size(), crc);
+  }
+  return static_cast<std::uint8_t>((crc & 0xFF) ^ (crc >> 8));
+}
+
+}  // namespace
+
+TEST(Mavlink, CrcExtrasFollowFromTheMessageDefinitions) {
+  EXPECT_EQ(crc_extra("HEARTBEAT", {{"uint32_t", "custom_mode"},
+                                    {"uint8_t", "type"},
+                                    {"uint8_t", "autopilot"},
+                                    {"uint8_t", "base_mode"},
+                                    {"uint8_t", "system_status"},
+                                    {"uint8_t", "mavlink_version"}}),
+            mavlink::kHeartbeatCrcExtra);
+  EXPECT_EQ(crc_extra("OBSTACLE_DISTANCE_3D", {{"uint32_t", "time_boot_ms"},
+                                               {"float", "x"},
+                                               {"float", "y"},
+                                               {"float", "z"},
+                                               {"float", "min_distance"},
+                                               {"float", "max_distance"},
+                                               {"uint16_t", "obstacle_id"},
+                                               {"uint8_t", "sensor_type"},
+                                               {"uint8_t", "frame"}}),
+            mavlink::kObstacleDistance3dCrcExtra);
+}
+
+TEST(Mavlink, HeartbeatAndObstacle3dFrames) {
+  std::uint8_t buf[64];
+  const mavlink::LinkIds ids{7, 195};
+  std::size_t n = mavlink::encode_heartbeat(ids, 3, buf);
+  ASSERT_EQ(n, 12u + 9u);  // mavlink_version (3) is the last byte: nothing truncated
+  EXPECT_EQ(buf[5], 7);
+  EXPECT_EQ(buf[6], 195);
+  EXPECT_EQ(buf[7] | buf[8] << 8 | buf[9] << 16, 0);
+  EXPECT_EQ(buf[10 + 4], mavlink::kTypeOnboardController);
+  EXPECT_EQ(buf[10 + 5], mavlink::kAutopilotInvalid);
+  mavlink::Obstacle3d o;
+  o.time_boot_ms = 1234;
+  o.obstacle_id = 42;
+  o.x = 8.0f;
+  o.max_distance = 50.0f;
+  n = mavlink::encode_obstacle_distance_3d(o, ids, 4, buf);
+  ASSERT_EQ(n, 12u + 28u);  // frame BODY_FRD (12) ends the payload
+  EXPECT_EQ(buf[7] | buf[8] << 8 | buf[9] << 16, 11037);
+  EXPECT_EQ(buf[10 + 27], mavlink::kFrameBodyFrd);
+  EXPECT_EQ(buf[10 + 24] | buf[10 + 25] << 8, 42);
 }

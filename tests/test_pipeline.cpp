@@ -473,7 +473,7 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   ASSERT_EQ(getsockname(receiver, reinterpret_cast<sockaddr*>(&bound), &bound_size), 0);
   mavlink::MavlinkUdpConfig mavlink_config;
   mavlink_config.port = ntohs(bound.sin_port);
-  mavlink_config.rate_hz = 1000;
+  mavlink_config.rate_hz = 50;
   mavlink::MavlinkUdpSink mavlink(mavlink_config);
   ASSERT_TRUE(mavlink.open(&error)) << error;
   can::CanObstacleSink can_out("vcan0", {}, features.capacity());
@@ -495,10 +495,10 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   EXPECT_GT(recording.last_health.end_to_end_ms_p50, 0.0);
   EXPECT_GT(recording.last_health.static_memory_bytes, 0);
   EXPECT_GT(recording.last_health.named, 5);
-  // Every update is sent or held back by the rate limit (1 kHz: a fast mapper
-  // publishes sooner than that now and then), none is lost.
+  // Every update reached the sink; it sent some (sectors, 3-D obstacles, heartbeat).
+  EXPECT_EQ(mavlink.updates(), s.outputs_published);
   EXPECT_GT(mavlink.sent(), 0);
-  EXPECT_EQ(mavlink.sent() + mavlink.rate_limited(), s.outputs_published);
+  EXPECT_GE(mavlink.heartbeats(), 1);
   EXPECT_EQ(mavlink.failed(), 0);
   close(receiver);
   EXPECT_EQ(s.mapping_thread_allocations, 0);

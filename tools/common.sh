@@ -65,3 +65,47 @@ zonemap_build() {
   fi
   rm -f "$log"
 }
+
+# The independent decoders the tests check our outputs with (npm, tests/js):
+# Node.js from Debian when it is missing, then `npm ci` from the lock file. When
+# the registry cannot be reached the tests that need them are skipped, and say so.
+zonemap_install_js() {
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    zonemap_install nodejs npm || true
+  fi
+  local dir="$ZONEMAP_ROOT/tests/js"
+  command -v npm >/dev/null 2>&1 || { echo "zonemap: no npm: independent-decoder tests will be skipped" >&2; return 0; }
+  if [ ! -f "$dir/node_modules/.package-lock.json" ] ||
+     ! cmp -s "$dir/package-lock.json" "$dir/node_modules/.zonemap-lock"; then
+    if (cd "$dir" && timeout 300 npm ci --no-audit --no-fund --loglevel=error >/dev/null 2>&1); then
+      cp "$dir/package-lock.json" "$dir/node_modules/.zonemap-lock"
+    else
+      echo "zonemap: npm registry unreachable (npm ci in tests/js failed): independent-decoder tests will be skipped" >&2
+    fi
+  fi
+}
+
+# After a ctest run: one line naming every test that was skipped, and why (the
+# test's own "SKIP: ..." or gtest's skip message, from ctest's LastTest.log).
+#   zonemap_report_skipped CTEST_OUTPUT BUILD_DIR
+zonemap_report_skipped() {
+  local names line name reason list=()
+  names="$(sed -n 's/^[[:space:]]*[0-9]* - \(.*\) (Skipped)$/\1/p' "$1")"
+  while IFS= read -r name; do
+    [ -n "$name" ] || continue
+    reason="$(awk -v want="$name" '
+      $0 ~ /^[0-9]+\/[0-9]+ Testing: / { inside = ($3 == want); next }
+      !inside { next }
+      next_is_reason { print; exit }
+      /SKIP: / { sub(/.*SKIP: /, ""); print; exit }
+      /: Skipped$/ { next_is_reason = 1 }
+    ' "$2/Testing/Temporary/LastTest.log" 2>/dev/null)"
+    list+=("$name (${reason:-no reason given})")
+  done <<<"$names"
+  if [ ${#list[@]} -eq 0 ]; then
+    echo "zonemap: skipped: none"
+  else
+    local IFS=';'
+    echo "zonemap: skipped ${#list[@]}: ${list[*]}"
+  fi
+}

@@ -29,8 +29,9 @@ void LcmObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   } else {
     publisher_.publish(config_.map_channel.c_str(), bytes, size, now_s);
   }
-  const ObstacleDistances d = obstacle_distances(update.boxes, update.count, update.world_T_body,
-                                                 update.world_z_up, config_.sectors);
+  const ObstacleDistances d =
+      obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
+                         update.world_z_up, config_.sectors, update.sectors_observed);
   distance_ = to_message(d, utime);
   const int n = distance_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   if (n <= 0) {

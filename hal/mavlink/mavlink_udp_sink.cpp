@@ -14,13 +14,38 @@ namespace zonemap::mavlink {
 
 static_assert(sizeof(sockaddr_in) <= 16);
 
-MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config) : config_(config) {}
+std::string validate(const MavlinkUdpConfig& c) {
+  if (!(c.rate_hz >= 5.0 && c.rate_hz <= 50.0)) {
+    return "outputs.mavlink.rate_hz must be in [5, 50]: PX4 and ArduPilot drop obstacle data "
+           "older than 0.5 s";
+  }
+  if (c.system_id < 1 || c.system_id > 255 || c.component_id < 1 || c.component_id > 255) {
+    return "outputs.mavlink.system_id and component_id must be in [1, 255]";
+  }
+  if (c.max_obstacles_3d < 0 || c.max_obstacles_3d > MavlinkUdpSink::kMaxObstacles3d) {
+    return "outputs.mavlink.obstacles_3d must be in [0, 64]";
+  }
+  if (!(c.stale_after_s > 0.0 && c.stale_after_s <= 5.0)) {
+    return "outputs.mavlink.stale_after_s must be in (0, 5]";
+  }
+  return {};
+}
+
+MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config) : config_(config) {
+  ids_.system_id = static_cast<std::uint8_t>(config.system_id);
+  ids_.component_id = static_cast<std::uint8_t>(config.component_id);
+}
 
 MavlinkUdpSink::~MavlinkUdpSink() {
   if (fd_ >= 0) ::close(fd_);
 }
 
 bool MavlinkUdpSink::open(std::string* error) {
+  const std::string why = validate(config_);
+  if (!why.empty()) {
+    *error = "mavlink: " + why;
+    return false;
+  }
   sockaddr_in to{};
   to.sin_family = AF_INET;
   to.sin_port = htons(static_cast<std::uint16_t>(config_.port));
@@ -39,24 +64,78 @@ bool MavlinkUdpSink::open(std::string* error) {
   return true;
 }
 
-void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
-  if (fd_ < 0) return;
-  if (now_s - last_s_ < 1.0 / config_.rate_hz) {
-    ++rate_limited_;
-    return;
-  }
-  last_s_ = now_s;
-  const ObstacleDistances d = obstacle_distances(update.boxes, update.count, update.world_T_body,
-                                                 update.world_z_up, config_.sectors);
-  std::uint8_t frame[kMaxFrameBytes];
-  const auto usec = static_cast<std::uint64_t>(std::llround(std::max(update.time_s, 0.0) * 1e6));
-  const std::size_t n = encode_obstacle_distance(d, usec, config_.ids, sequence_++, frame);
-  const ssize_t sent = ::sendto(fd_, frame, n, MSG_DONTWAIT,
+void MavlinkUdpSink::send(const std::uint8_t* frame, std::size_t size) {
+  const ssize_t sent = ::sendto(fd_, frame, size, MSG_DONTWAIT,
                                 reinterpret_cast<const sockaddr*>(address_), sizeof(sockaddr_in));
-  if (sent == static_cast<ssize_t>(n)) {
+  if (sent == static_cast<ssize_t>(size)) {
     ++sent_;
   } else {
     ++failed_;
+  }
+}
+
+void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
+  if (fd_ < 0) return;
+  ++updates_;
+  distances_ =
+      obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
+                         update.world_z_up, config_.sectors, update.sectors_observed);
+  nearest_count_ = nearest_obstacles(update.boxes, update.count, update.footprints(),
+                                     update.world_T_body, update.world_z_up, config_.sectors,
+                                     nearest_, static_cast<std::size_t>(config_.max_obstacles_3d));
+  time_usec_ = static_cast<std::uint64_t>(std::llround(std::max(update.time_s, 0.0) * 1e6));
+  update_s_ = now_s;
+  if (now_s < next_send_s_) {
+    ++rate_limited_;  // goes out on the next tick that is due
+    return;
+  }
+  send_obstacles(now_s);
+}
+
+void MavlinkUdpSink::tick(double now_s) {
+  if (fd_ < 0) return;
+  if (now_s - last_heartbeat_s_ >= 1.0) {
+    last_heartbeat_s_ = now_s;
+    std::uint8_t frame[12 + kHeartbeatPayload];
+    send(frame, encode_heartbeat(ids_, sequence_++, frame));
+    ++heartbeats_;
+  }
+  if (now_s < next_send_s_ || update_s_ < -1e299) return;
+  if (now_s - update_s_ > config_.stale_after_s) {
+    ++stale_;  // the map stopped: let the autopilot time out rather than repeat old data
+    schedule_next(now_s);
+    return;
+  }
+  ++resent_;
+  send_obstacles(now_s);
+}
+
+// The next send one period after the last one was due, so that ticks arriving a
+// little late do not lower the rate; after a pause, one period from now.
+void MavlinkUdpSink::schedule_next(double now_s) {
+  const double period = 1.0 / config_.rate_hz;
+  next_send_s_ += period;
+  if (next_send_s_ < now_s) next_send_s_ = now_s + period;
+}
+
+void MavlinkUdpSink::send_obstacles(double now_s) {
+  schedule_next(now_s);
+  std::uint8_t frame[kMaxFrameBytes];
+  send(frame, encode_obstacle_distance(distances_, time_usec_, ids_, sequence_++, frame));
+  // One scan: every obstacle of this update shares its time_boot_ms.
+  const auto boot_ms = static_cast<std::uint32_t>(std::llround(std::max(now_s, 0.0) * 1000.0));
+  for (std::size_t i = 0; i < nearest_count_; ++i) {
+    Obstacle3d o;
+    o.time_boot_ms = boot_ms;
+    o.obstacle_id = static_cast<std::uint16_t>(nearest_[i].id & 0xFFFF);
+    o.x = static_cast<float>(nearest_[i].body_frd.x());
+    o.y = static_cast<float>(nearest_[i].body_frd.y());
+    o.z = static_cast<float>(nearest_[i].body_frd.z());
+    o.min_distance = static_cast<float>(config_.sectors.min_distance_m);
+    o.max_distance = static_cast<float>(config_.sectors.max_distance_m);
+    std::uint8_t frame3d[12 + kObstacleDistance3dPayload];
+    send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d));
+    ++obstacles_3d_;
   }
 }
 
@@ -64,6 +143,10 @@ void MavlinkUdpSink::report(hal::HealthSnapshot* h) const {
   h->add("mavlink_out_sent", sent_);
   h->add("mavlink_out_failed", failed_);
   h->add("mavlink_out_rate_limited", rate_limited_);
+  h->add("mavlink_out_resent", resent_);
+  h->add("mavlink_out_stale", stale_);
+  h->add("mavlink_out_heartbeats", heartbeats_);
+  h->add("mavlink_out_obstacles_3d", obstacles_3d_);
 }
 
 }  // namespace zonemap::mavlink

@@ -31,6 +31,26 @@ constexpr std::size_t kTime = 0, kDistances = 8, kMin = 152, kMax = 154, kSensor
 
 }  // namespace
 
+std::size_t encode_frame(std::uint32_t message_id, std::uint8_t crc_extra,
+                         const std::uint8_t* payload, std::size_t size, const LinkIds& ids,
+                         std::uint8_t sequence, std::uint8_t* buf) {
+  std::size_t length = size;
+  while (length > 1 && payload[length - 1] == 0) --length;  // MAVLink 2 truncation
+  buf[0] = 0xFD;
+  buf[1] = static_cast<std::uint8_t>(length);
+  buf[2] = 0;  // incompat flags (unsigned)
+  buf[3] = 0;  // compat flags
+  buf[4] = sequence;
+  buf[5] = ids.system_id;
+  buf[6] = ids.component_id;
+  put(buf + 7, message_id, 3);
+  std::memcpy(buf + 10, payload, length);
+  std::uint16_t crc = crc_x25(buf + 1, 9 + length);
+  crc = crc_x25(&crc_extra, 1, crc);
+  put(buf + 10 + length, crc, 2);
+  return 12 + length;
+}
+
 std::uint16_t crc_x25(const std::uint8_t* data, std::size_t size, std::uint16_t crc) {
   for (std::size_t i = 0; i < size; ++i) {
     std::uint8_t t = static_cast<std::uint8_t>(data[i] ^ (crc & 0xFF));
@@ -54,22 +74,37 @@ std::size_t encode_obstacle_distance(const ObstacleDistances& d, std::uint64_t t
   put(payload + kIncrementF, float_bits(d.increment_deg), 4);
   put(payload + kAngleOffset, float_bits(0.0f), 4);
   payload[kFrame] = kFrameBodyFrd;
-  std::size_t length = kObstacleDistancePayload;
-  while (length > 1 && payload[length - 1] == 0) --length;  // MAVLink 2 truncation
+  return encode_frame(kObstacleDistanceId, kObstacleDistanceCrcExtra, payload,
+                      kObstacleDistancePayload, ids, sequence, buf);
+}
 
-  buf[0] = 0xFD;
-  buf[1] = static_cast<std::uint8_t>(length);
-  buf[2] = 0;  // incompat flags (unsigned)
-  buf[3] = 0;  // compat flags
-  buf[4] = sequence;
-  buf[5] = ids.system_id;
-  buf[6] = ids.component_id;
-  put(buf + 7, kObstacleDistanceId, 3);
-  std::memcpy(buf + 10, payload, length);
-  std::uint16_t crc = crc_x25(buf + 1, 9 + length);
-  crc = crc_x25(&kObstacleDistanceCrcExtra, 1, crc);
-  put(buf + 10 + length, crc, 2);
-  return 12 + length;
+std::size_t encode_obstacle_distance_3d(const Obstacle3d& o, const LinkIds& ids,
+                                        std::uint8_t sequence, std::uint8_t* buf) {
+  // Wire order: time_boot_ms, x, y, z, min_distance, max_distance, obstacle_id,
+  // sensor_type, frame.
+  std::uint8_t payload[kObstacleDistance3dPayload] = {};
+  put(payload + 0, o.time_boot_ms, 4);
+  put(payload + 4, float_bits(o.x), 4);
+  put(payload + 8, float_bits(o.y), 4);
+  put(payload + 12, float_bits(o.z), 4);
+  put(payload + 16, float_bits(o.min_distance), 4);
+  put(payload + 20, float_bits(o.max_distance), 4);
+  put(payload + 24, o.obstacle_id, 2);
+  payload[26] = kSensorTypeUnknown;
+  payload[27] = kFrameBodyFrd;
+  return encode_frame(kObstacleDistance3dId, kObstacleDistance3dCrcExtra, payload,
+                      kObstacleDistance3dPayload, ids, sequence, buf);
+}
+
+std::size_t encode_heartbeat(const LinkIds& ids, std::uint8_t sequence, std::uint8_t* buf) {
+  // Wire order: custom_mode, type, autopilot, base_mode, system_status, mavlink_version.
+  std::uint8_t payload[kHeartbeatPayload] = {};
+  payload[4] = kTypeOnboardController;
+  payload[5] = kAutopilotInvalid;
+  payload[7] = kStateActive;
+  payload[8] = kMavlinkVersion;
+  return encode_frame(kHeartbeatId, kHeartbeatCrcExtra, payload, kHeartbeatPayload, ids, sequence,
+                      buf);
 }
 
 bool decode_obstacle_distance(const std::uint8_t* buf, std::size_t size,

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "zonemap/feature_map.hpp"
+#include "zonemap/obstacle_distance.hpp"
 
 namespace zonemap::hal {
 
@@ -21,6 +22,10 @@ struct ObstacleUpdate {
   const FootprintRect* rects = nullptr;  // per box: rect_offsets / rect_counts
   const std::uint32_t* rect_offsets = nullptr;
   const std::uint32_t* rect_counts = nullptr;
+  // Sectors around the vehicle the live grid has seen (observed_sectors), filled by
+  // the mapping thread; a sector never seen is sent as unknown, not as free.
+  SectorMask sectors_observed{};
+  FootprintView footprints() const { return {rects, rect_offsets, rect_counts}; }
 };
 
 // Every counter of the run, for the periodic health message and stats.json.
@@ -53,6 +58,11 @@ class ObstacleSink {
   virtual const char* name() const = 0;
   virtual void publish(const ObstacleUpdate& update, double now_s) = 0;
   virtual void publish_health(const HealthSnapshot& /*health*/, double /*now_s*/) {}
+  // Called by the output thread at least every kTickPeriodS whether or not an
+  // update came: for messages with a rate of their own (MAVLink's heartbeat and
+  // its re-sent sectors).
+  virtual void tick(double /*now_s*/) {}
+  static constexpr double kTickPeriodS = 0.02;
   // Adds this sink's counters to a snapshot (for health and stats.json).
   virtual void report(HealthSnapshot* /*health*/) const {}
 };

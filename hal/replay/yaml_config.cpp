@@ -132,6 +132,7 @@ static bool parse_camera_yaml(const YAML::Node& root, const std::string& path, C
       k.body_T_camera = Eigen::Isometry3d::Identity();
       k.body_T_camera.linear() = quat.normalized().toRotationMatrix();
       k.body_T_camera.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+      k.mount_configured = true;
     };
     auto flag = [](bool* seen, Reader r) {
       return [seen, r](const YAML::Node& n) {

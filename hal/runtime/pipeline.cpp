@@ -137,7 +137,8 @@ struct Pipeline::Impl {
     Clock::time_point acquired;
     double time_s = 0.0;
     Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();
-    hal::HealthSnapshot health;  // the mapping side's counters at this update
+    SectorMask sectors_observed{};  // what the live grid has seen around the vehicle
+    hal::HealthSnapshot health;     // the mapping side's counters at this update
   };
   std::array<OutputBuffer, kOutputSlots> outputs;
   Channel<std::uint32_t, 4> out_filled;  // extraction -> output
@@ -612,6 +613,11 @@ struct Pipeline::Impl {
           buffer.acquired = info.acquired;
           buffer.time_s = frame_time;
           buffer.world_T_body = pose * options.body_T_camera.inverse();
+          if (!sinks.empty()) {
+            buffer.sectors_observed =
+                observed_sectors(mapper.zones(), mapper.config().cell_size_m, buffer.world_T_body,
+                                 options.world_z_up, options.sectors);
+          }
           fill_health(&buffer.health, s, scope.counted());
           ExtractionJob job = context_job(ExtractionJob::Kind::kPublish);
           job.slot = out;
@@ -628,14 +634,32 @@ struct Pipeline::Impl {
     push_job(ExtractionJob{});  // kEnd: the extraction thread passes it on to the output
   }
 
+  // The next filled output buffer (or kEnd); while none comes the sinks get their
+  // tick every ObstacleSink::kTickPeriodS (asleep in between, woken by a push).
+  std::uint32_t next_output() {
+    std::uint32_t out = kEnd;
+    while (!out_filled.pop(&out)) {
+      const std::uint32_t ticket = output_bell.ticket();
+      if (out_filled.pop(&out)) break;
+      for (hal::ObstacleSink* sink : sinks) sink->tick(seconds_since(started));
+      if (sinks.empty()) {
+        output_bell.wait(ticket);
+      } else {
+        output_bell.wait_until(ticket, Clock::now() + std::chrono::microseconds(static_cast<long>(
+                                                          hal::ObstacleSink::kTickPeriodS * 1e6)));
+      }
+    }
+    for (hal::ObstacleSink* sink : sinks) sink->tick(seconds_since(started));
+    return out;
+  }
+
   void output() {
     PipelineStats& s = output_stats;
     realtime(options.priority_output, options.cpu_output, &s, "output");
     os::AllocationScope scope;
     double last_health_s = -1e300;
     while (true) {
-      std::uint32_t out = kEnd;
-      pop_waiting(out_filled, &out, output_bell);
+      const std::uint32_t out = next_output();
       if (out == kEnd) break;
       OutputBuffer& buffer = outputs[out];
       const double now = seconds_since(started);
@@ -648,6 +672,7 @@ struct Pipeline::Impl {
       update.rects = buffer.rects.data();
       update.rect_offsets = buffer.rect_offsets.data();
       update.rect_counts = buffer.rect_counts.data();
+      update.sectors_observed = buffer.sectors_observed;
       for (hal::ObstacleSink* sink : sinks) sink->publish(update, now);
       const double ms = ms_between(buffer.acquired, Clock::now());
       s.end_to_end.record(ms);

@@ -51,6 +51,7 @@ struct PipelineOptions {
   bool include_ground = false;                                      // ground boxes to the sinks too
   Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();  // for body-frame outputs
   bool world_z_up = true;
+  SectorConfig sectors;                 // the band and range in which sectors count as observed
   std::size_t footprint_rects = 16384;  // footprint rectangles per output buffer
 };
 

@@ -2,10 +2,15 @@
 // obstacle in equal horizontal sectors around the vehicle, body frame, sector 0
 // straight ahead and angles growing clockwise seen from above (MAVLink
 // OBSTACLE_DISTANCE, frame BODY_FRD; PX4 and ArduPilot use 72 sectors of 5 deg).
+// Sector j is centred on j * increment (angle_offset 0): ArduPilot takes
+// j * increment + angle_offset as the sector's middle and PX4 bins the message the
+// same way, so sector 0 covers [-2.5, 2.5) deg.
 // Only obstacle boxes (not ground) reaching into a vertical band around the
-// vehicle count; each box is taken as its horizontal rectangle (conservative).
+// vehicle count; each box is taken as its footprint rectangles where the update
+// has them (tighter), else its horizontal rectangle (conservative).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 
@@ -15,7 +20,10 @@
 
 namespace zonemap {
 
+class ZoneMap;
+
 inline constexpr int kObstacleSectors = 72;
+inline constexpr std::uint16_t kSectorUnknown = 65535;  // UINT16_MAX: not seen
 
 struct SectorConfig {
   double min_distance_m = 0.5;   // the nearest distance the sensor reports
@@ -24,20 +32,65 @@ struct SectorConfig {
   double band_above_m = 5.0;
 };
 
+// Which sectors the map has looked into (true = observed).
+using SectorMask = std::array<bool, kObstacleSectors>;
+
 struct ObstacleDistances {
-  // Centimetres per sector: max_distance+1 = no obstacle (MAVLink's convention).
+  // Centimetres per sector: max_distance+1 = observed, no obstacle; kSectorUnknown
+  // = never observed and no remembered obstacle (MAVLink's conventions).
   std::uint16_t distances_cm[kObstacleSectors] = {};
   std::uint16_t min_distance_cm = 0;
   std::uint16_t max_distance_cm = 0;
   float increment_deg = 360.0f / kObstacleSectors;
   int sectors_with_obstacle = 0;
+  int sectors_unknown = 0;
+};
+
+// The footprint rectangles of box i: rects[offsets[i] .. + counts[i]] (a count of
+// 0: the box itself). All three may be null: every box is its rectangle.
+struct FootprintView {
+  const FootprintRect* rects = nullptr;
+  const std::uint32_t* offsets = nullptr;
+  const std::uint32_t* counts = nullptr;
 };
 
 // world_T_body: the vehicle's body pose (x forward). world_z_up: the world's z axis
-// points up (false: NED, z down). Exact per sector: the nearest point of each box
-// rectangle inside the sector's wedge. Allocation-free, O(boxes x sectors).
+// points up (false: NED, z down). Exact per sector: the nearest point of each
+// rectangle inside the sector's wedge. A sector with no obstacle reads "no
+// obstacle" only where `observed` says it was seen. Allocation-free,
+// O(rectangles x sectors).
 ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count,
+                                     const FootprintView& footprints,
                                      const Eigen::Isometry3d& world_T_body, bool world_z_up,
-                                     const SectorConfig& config);
+                                     const SectorConfig& config, const SectorMask& observed);
+
+// A sector counts as observed when, along its centre line from min_distance out to
+// max_distance, at least half of the steps (one a cell) that lie inside the zones
+// holding a grid have a seen cell (fused value != 0, free or occupied) at one of
+// three heights of the band (bottom, vehicle, top), and at least four steps do.
+// Reads at most 72 x 3 x (max_distance / cell) cells; allocation-free.
+SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
+                            const Eigen::Isometry3d& world_T_body, bool world_z_up,
+                            const SectorConfig& config);
+
+// Nearest points of the nearest obstacles, for MAVLink OBSTACLE_DISTANCE_3D: per
+// obstacle box in range and in the band, the point of its footprint prisms (or
+// box) nearest to the vehicle, in the body frame (FRD), nearest first.
+struct NearestObstacle {
+  std::uint32_t id = 0;  // the box's feature id (stable while the feature lives)
+  Eigen::Vector3d body_frd = Eigen::Vector3d::Zero();
+  double distance_m = 0.0;
+};
+std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
+                              const FootprintView& footprints,
+                              const Eigen::Isometry3d& world_T_body, bool world_z_up,
+                              const SectorConfig& config, NearestObstacle* out,
+                              std::size_t capacity);
+
+// The vehicle's forward and right axes in the world's horizontal plane, and down.
+struct HorizontalAxes {
+  Eigen::Vector3d forward, right, down;
+};
+HorizontalAxes horizontal_axes(const Eigen::Isometry3d& world_T_body, bool world_z_up);
 
 }  // namespace zonemap

@@ -121,6 +121,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   options.health_period_s = config.health_period_s;
   options.body_T_camera = mount;
   options.world_z_up = z_up;
+  options.sectors = config.mavlink.sectors;
   std::vector<hal::ObstacleSink*> sinks;
   for (auto& s : sinks_) sinks.push_back(s.get());
   pipeline_ = std::make_unique<runtime::Pipeline>(
@@ -142,6 +143,7 @@ std::string VehicleDaemon::describe() const {
                       : (replay_poses_ == &log_poses_ ? config_.pose_log_path.c_str()
                                                       : "the sequence's groundtruth.txt"))
       << "\n";
+  out << "zonemap: " << describe_mount(camera_) << "\n";
   for (const auto& s : sinks_) out << "zonemap: output: " << s->name() << "\n";
   out << "zonemap: reserved " << mib(mapper_->zones().reserved_bytes()) << " MiB zone pool, "
       << mib(mapper_->local_grid().reserved_bytes()) << " MiB local grid, "

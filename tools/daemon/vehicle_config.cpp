@@ -149,7 +149,11 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
                       hal::read_section(path, node, "outputs.mavlink",
                                         {{"host", into(&c.mavlink.host)},
                                          {"port", into(&c.mavlink.port)},
-                                         {"rate_hz", into(&c.mavlink.rate_hz)}});
+                                         {"rate_hz", into(&c.mavlink.rate_hz)},
+                                         {"system_id", into(&c.mavlink.system_id)},
+                                         {"component_id", into(&c.mavlink.component_id)},
+                                         {"obstacles_3d", into(&c.mavlink.max_obstacles_3d)},
+                                         {"stale_after_s", into(&c.mavlink.stale_after_s)}});
                     }}})}});
   } catch (const ParseError& e) {
     *error = e.message;
@@ -188,6 +192,10 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
                 c.mavlink.rate_hz > 0.0,
             "rates and periods must be positive")) {
     return false;
+  }
+  if (c.mavlink_output) {
+    const std::string why = mavlink::validate(c.mavlink);
+    if (!need(why.empty(), why.c_str())) return false;
   }
   c.mapping_path = relative_to(path, c.mapping_path);
   c.camera_path = relative_to(path, c.camera_path);

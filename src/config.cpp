@@ -35,6 +35,9 @@ std::string validate(const MapConfig& c) {
   } else if (c.sky.min_intensity < 0 || c.sky.min_intensity > 255 || c.sky.max_gradient < 0 ||
              c.sky.max_gradient > 255) {
     why << "sky_filter.min_intensity and max_gradient must be in [0, 255]";
+  } else if (!(c.timestamps.max_step_s > 0.0) || c.timestamps.confirm_values < 2 ||
+             c.timestamps.confirm_values > 100) {
+    why << "timestamps.max_step_s must be > 0 and timestamps.confirm_values in [2, 100]";
   } else if (!(c.pose_max_gap_s > 0.0) || !(c.pose_tolerance_s >= 0.0)) {
     why << "pose.max_gap_s must be > 0 and pose.tolerance_s >= 0";
   } else if (c.depth_scale_override < 0.0 || !std::isfinite(c.depth_scale_override)) {

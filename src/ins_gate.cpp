@@ -18,6 +18,8 @@ const char* to_string(InsRejection reason) {
       return "position jump beyond the speed limit";
     case InsRejection::kInaccurate:
       return "position accuracy worse than the limit";
+    case InsRejection::kTimeOutlier:
+      return "time far after the previous solution";
     case InsRejection::kCount:
       break;
   }
@@ -47,7 +49,14 @@ bool InsGate::check(const InsSolution& s, InsRejection* why) {
   if (config_.max_position_sigma_m >= 0.0 && s.position_sigma_m > config_.max_position_sigma_m) {
     return reject(InsRejection::kInaccurate, why);
   }
-  if (has_last_ && !(s.time_s > last_time_s_)) return reject(InsRejection::kTimeNotIncreasing, why);
+  const TimeVerdict time = time_.offer(s.time_s);
+  if (time == TimeVerdict::kFuture) return reject(InsRejection::kTimeOutlier, why);
+  if (!accepted(time)) return reject(InsRejection::kTimeNotIncreasing, why);
+  if (time == TimeVerdict::kAdopted) {
+    ++counters_.clock_steps;  // a new clock: positions are compared from here on
+    has_last_ = false;
+    has_candidate_ = false;
+  }
   if (has_last_) {
     const double dt = s.time_s - last_time_s_;
     const double allowed = config_.max_speed_mps * dt + config_.jump_margin_m;

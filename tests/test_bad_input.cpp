@@ -244,7 +244,8 @@ TEST(BadSequence, PerFrameFaultsAreCountedNotFatal) {
                              std::filesystem::copy_options::overwrite_existing);
   // Frame 5's left image is broken: the frame still maps, without the sky filter.
   write_text(seq + "/left/000005.png", "broken");
-  // A frame listed with a time going backwards, and one long after the last pose.
+  // A frame listed with a time going backwards, and one far in the future (a lone
+  // stamp: refused by the time watermark, the frames before it unaffected).
   std::string list = read_text(seq + "/depth.txt");
   list += "1.0 depth/000001.png\n";
   list += "99.0 depth/000001.png\n";
@@ -265,9 +266,9 @@ TEST(BadSequence, PerFrameFaultsAreCountedNotFatal) {
   const hal::RunStats& s = run.stats();
   EXPECT_EQ(s.frames_in, 14);
   EXPECT_EQ(s.frames_rejected_bad_image, 3);
-  EXPECT_EQ(s.frames_rejected_time_order, 1);
-  EXPECT_EQ(s.frames_rejected, 4);
-  EXPECT_EQ(s.frames_skipped_no_pose, 1);
+  EXPECT_EQ(s.frames_rejected_time_order, 2);
+  EXPECT_EQ(s.frames_rejected, 5);
+  EXPECT_EQ(s.frames_skipped_no_pose, 0);
   EXPECT_EQ(s.frames_mapped, 9);
   EXPECT_EQ(s.left_images_rejected, 1);
   EXPECT_EQ(s.poses_rejected, 1);
@@ -278,8 +279,11 @@ TEST(BadSequence, PerFrameFaultsAreCountedNotFatal) {
   TempDir out;
   ASSERT_TRUE(run.write_outputs(out.path(), &error)) << error;
   const std::string json = read_text(out / "stats.json");
-  EXPECT_NE(json.find("\"frames_rejected\": 4"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"frames_skipped_no_pose\": 1"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"frames_rejected\": 5"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"frames_time_past\": 1, \"frames_time_repeated\": 0"), std::string::npos)
+      << json;
+  EXPECT_NE(json.find("\"frames_time_future\": 1"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"poses_not_finite\": 1"), std::string::npos) << json;
 }
 
 TEST(BadSequence, MissingFilesAreErrorsNamingTheFile) {

@@ -172,6 +172,14 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
       << ", \"depth_table\": " << s.depth_table_bytes << ", \"pipeline\": " << s.pipeline_bytes
       << "}";
+  if (!s.rejections.empty()) {
+    out << ",\n  \"rejections\": {";
+    for (std::size_t i = 0; i < s.rejections.size(); ++i) {
+      out << (i == 0 ? "" : ", ") << "\"" << s.rejections[i].first
+          << "\": " << s.rejections[i].second;
+    }
+    out << "}";
+  }
   if (!s.links.empty()) {  // the daemon: vehicle-link counters by name
     out << ",\n  \"links\": {";
     for (std::size_t i = 0; i < s.links.size(); ++i) {

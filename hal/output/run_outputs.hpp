@@ -68,6 +68,8 @@ struct RunStats {
   double queue_ms_p99 = 0.0;
   long rss_after_start = 0, rss_at_end = 0;
   std::vector<std::pair<std::string, std::int64_t>> links;  // vehicle-link counters (daemon)
+  // Every refused input item by kind, and the clock steps adopted (replay).
+  std::vector<std::pair<std::string, std::int64_t>> rejections;
 };
 
 // boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells

@@ -27,52 +27,134 @@ std::string join(const std::string& dir, const std::string& relative) {
 }  // namespace
 
 bool load_frame_list(const std::string& list_path, const std::string& base_dir,
-                     std::vector<FrameListEntry>* entries, std::string* error) {
+                     std::vector<FrameListEntry>* entries, std::string* error,
+                     const TimeWatermarkConfig& time) {
   std::ifstream in(list_path);
   if (!in) {
     *error = list_path + ": cannot open";
     return false;
   }
-  return parse_frame_list(in, list_path, base_dir, entries, error);
+  return parse_frame_list(in, list_path, base_dir, entries, error, time);
 }
 
 bool parse_frame_list(std::istream& in, const std::string& list_path, const std::string& base_dir,
-                      std::vector<FrameListEntry>* entries, std::string* error) {
+                      std::vector<FrameListEntry>* entries, std::string* error,
+                      const TimeWatermarkConfig& time) {
   entries->clear();
   std::string line;
   int number = 0;
-  double last_time = -INFINITY;
   while (std::getline(in, line)) {
     ++number;
     if (is_blank_or_comment(line)) continue;
     std::istringstream fields(line);
     FrameListEntry entry;
-    std::string relative;
-    if (!(fields >> entry.time_s >> relative) || !std::isfinite(entry.time_s)) {
+    std::string stamp, relative;
+    char* end = nullptr;
+    if (!(fields >> stamp >> relative) ||
+        (entry.time_s = std::strtod(stamp.c_str(), &end), end == stamp.c_str() || *end != '\0')) {
       *error = list_path + ":" + std::to_string(number) + ": expected 'timestamp path'";
       return false;
     }
+    // A "nan" or "inf" stamp parses: the time filter refuses that frame alone.
     entry.path = join(base_dir, relative);
     entry.line = number;
-    entry.time_in_order = entry.time_s > last_time;
-    if (entry.time_in_order) last_time = entry.time_s;
     entries->push_back(std::move(entry));
+  }
+  std::vector<double> times(entries->size());
+  std::vector<TimeVerdict> verdicts(entries->size());
+  for (std::size_t i = 0; i < entries->size(); ++i) times[i] = (*entries)[i].time_s;
+  filter_time_list(times.data(), times.size(), time, verdicts.data());
+  for (std::size_t i = 0; i < entries->size(); ++i) {
+    (*entries)[i].time_verdict = verdicts[i];
+    (*entries)[i].time_in_order = accepted(verdicts[i]);
   }
   return true;
 }
 
 bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
-                     std::vector<std::string>* warnings, std::string* error) {
+                     std::vector<std::string>* warnings, std::string* error,
+                     const ListFilterConfig& filter, PoseListCounts* counts) {
   std::ifstream in(path);
   if (!in) {
     *error = path + ": cannot open";
     return false;
   }
-  return parse_trajectory(in, path, track, rejected, warnings, error);
+  return parse_trajectory(in, path, track, rejected, warnings, error, filter, counts);
 }
 
+namespace {
+
+// The poses of a list that pass the time filter and the plausibility gate, in
+// order, into the track; each refusal counted and described.
+void filter_poses(const std::vector<PoseSample>& samples, const std::vector<int>& lines,
+                  const std::string& path, const ListFilterConfig& filter, PoseTrack* track,
+                  int* rejected, std::vector<std::string>* warnings, PoseListCounts* counts) {
+  std::vector<double> times(samples.size());
+  std::vector<TimeVerdict> verdicts(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) times[i] = samples[i].time_s;
+  filter_time_list(times.data(), times.size(), filter.time, verdicts.data());
+  InsGateConfig gate_config = filter.gate;
+  gate_config.time.max_step_s = INFINITY;  // the list's time order is settled above
+  InsGate gate(gate_config);
+  const auto refuse = [&](std::size_t i, const char* reason, std::int64_t* counter) {
+    ++*rejected;
+    ++*counter;
+    warnings->push_back(path + ":" + std::to_string(lines[i]) + ": pose rejected: " + reason);
+  };
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const PoseSample& p = samples[i];
+    if (!p.position.allFinite() || !p.attitude.coeffs().allFinite() || !std::isfinite(p.time_s)) {
+      refuse(i, "non-finite value", &counts->not_finite);
+      continue;
+    }
+    if (std::fabs(p.attitude.norm() - 1.0) > 1e-3) {
+      refuse(i, "quaternion is not unit length", &counts->quaternion);
+      continue;
+    }
+    switch (verdicts[i]) {
+      case TimeVerdict::kPast:
+        refuse(i, "timestamp before the previous pose", &counts->time_past);
+        continue;
+      case TimeVerdict::kRepeated:
+        refuse(i, "timestamp repeats the previous pose's", &counts->time_repeated);
+        continue;
+      case TimeVerdict::kFuture:
+      case TimeVerdict::kNotFinite:
+        refuse(i, "timestamp far after its neighbours (a lone outlier)", &counts->time_future);
+        continue;
+      case TimeVerdict::kAdopted:
+      case TimeVerdict::kAccepted:
+        break;
+    }
+    InsSolution solution;
+    solution.time_s = p.time_s;
+    solution.position_m = p.position;
+    solution.attitude = p.attitude;
+    solution.attitude_valid = solution.position_valid = true;
+    InsRejection why = InsRejection::kCount;
+    if (!gate.check(solution, &why)) {
+      refuse(i, to_string(why), &counts->jump);
+      continue;
+    }
+    if (!track->append(p)) refuse(i, "timestamp not after the previous pose", &counts->time_past);
+  }
+  counts->reanchors = gate.counters().reanchors;
+  for (std::size_t i = 1; i < samples.size(); ++i) {
+    if (verdicts[i] == TimeVerdict::kAdopted && verdicts[i - 1] != TimeVerdict::kAdopted) {
+      ++counts->clock_steps;
+    }
+  }
+}
+
+}  // namespace
+
 bool parse_trajectory(std::istream& in, const std::string& path, PoseTrack* track, int* rejected,
-                      std::vector<std::string>* warnings, std::string* error) {
+                      std::vector<std::string>* warnings, std::string* error,
+                      const ListFilterConfig& filter, PoseListCounts* counts) {
+  PoseListCounts local_counts;
+  if (counts == nullptr) counts = &local_counts;
+  std::vector<PoseSample> samples;
+  std::vector<int> lines;
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {
@@ -101,16 +183,10 @@ bool parse_trajectory(std::istream& in, const std::string& path, PoseTrack* trac
     sample.time_s = v[0];
     sample.position = Eigen::Vector3d(v[1], v[2], v[3]);
     sample.attitude = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
-    if (!track->append(sample)) {
-      ++*rejected;
-      const bool finite = std::all_of(v, v + 8, [](double x) { return std::isfinite(x); });
-      const char* reason = !finite ? "non-finite value"
-                           : std::fabs(sample.attitude.norm() - 1.0) > 1e-3
-                               ? "quaternion is not unit length"
-                               : "timestamp not after the previous pose";
-      warnings->push_back(path + ":" + std::to_string(number) + ": pose rejected: " + reason);
-    }
+    samples.push_back(sample);
+    lines.push_back(number);
   }
+  filter_poses(samples, lines, path, filter, track, rejected, warnings, counts);
   return true;
 }
 
@@ -124,7 +200,11 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   if (!load_camera_yaml(camera_file, &camera_, error)) return false;
   if (config.depth_scale_override > 0.0) camera_.depth_scale = config.depth_scale_override;
 
-  if (!load_frame_list(join(dir, "depth.txt"), dir, &frames_, error)) return false;
+  ListFilterConfig filter;
+  filter.time.max_step_s = config.timestamps.max_step_s;
+  filter.time.confirm_values = config.timestamps.confirm_values;
+  filter.gate.time = config.timestamps;  // INS logs: a live stream's rules
+  if (!load_frame_list(join(dir, "depth.txt"), dir, &frames_, error, filter.time)) return false;
 
   // Optional left images, matched to depth frames by timestamp (same clock).
   left_paths_.assign(frames_.size(), std::string());
@@ -152,7 +232,9 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   warnings_.clear();
   const std::string trajectory = join(dir, "groundtruth.txt");
   if (std::filesystem::exists(trajectory)) {
-    return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error);
+    pose_counts_ = PoseListCounts{};
+    return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error, filter,
+                           &pose_counts_);
   }
   // The INS's own records (FORMATS.md §1): an LCM log of ins_state_t on INS_STATE,
   // or a candump log in the zonemap INS profile (INS clock), both through the gate.
@@ -160,15 +242,15 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   std::unique_ptr<PoseSource> source;
   if (std::filesystem::exists(lcm_log)) {
     auto log = std::make_unique<lcm_link::LcmLogPoseSource>(
-        "INS_STATE", camera_.world_z_up, InsGateConfig{}, camera_.body_T_camera, 0.0);
+        "INS_STATE", camera_.world_z_up, filter.gate, camera_.body_T_camera, 0.0);
     if (!log->open(lcm_log, error)) return false;
     source = std::move(log);
   } else if (std::filesystem::exists(candump)) {
     can::InsCanConfig profile;
     profile.profile = can::InsCanProfile::kZonemapIns;
     profile.time_source = can::InsTimeSource::kIns;
-    auto log = std::make_unique<can::CandumpPoseSource>(profile, InsGateConfig{},
-                                                        camera_.body_T_camera, 0.0);
+    auto log =
+        std::make_unique<can::CandumpPoseSource>(profile, filter.gate, camera_.body_T_camera, 0.0);
     if (!log->open(candump, error)) return false;
     source = std::move(log);
   } else {
@@ -210,7 +292,7 @@ bool ReplaySequence::read(std::size_t i, ReplayFrame* frame, std::string* why) c
   frame->has_left = false;
   frame->left_problem.clear();
   if (!entry.time_in_order) {
-    *why = "depth.txt:" + std::to_string(entry.line) + ": timestamp not after the previous frame";
+    *why = "depth.txt:" + std::to_string(entry.line) + ": " + to_string(entry.time_verdict);
     return false;
   }
   if (!read_png_gray16(entry.path, camera_.width, camera_.height, frame->depth.data(), why)) {

@@ -11,7 +11,9 @@
 
 #include "zonemap/camera.hpp"
 #include "zonemap/config.hpp"
+#include "zonemap/ins_gate.hpp"
 #include "zonemap/pose_track.hpp"
+#include "zonemap/time_watermark.hpp"
 
 namespace zonemap::hal {
 
@@ -19,26 +21,50 @@ struct FrameListEntry {
   double time_s = 0.0;
   std::string path;           // absolute or relative to the working directory
   int line = 0;               // line in the list file, for messages
-  bool time_in_order = true;  // false: not after the previous frame's timestamp
+  bool time_in_order = true;  // false: refused by the time watermark (time_verdict says why)
+  TimeVerdict time_verdict = TimeVerdict::kAccepted;
+};
+
+// How lists read whole are cleaned: their time order (a lone stamp far off is
+// refused alone, a forward step that persists is taken whole, a clock that goes
+// back is not adopted) and, for trajectories, the INS plausibility gate (speed
+// limit, jump, re-anchor) every live pose passes too.
+struct ListFilterConfig {
+  TimeWatermarkConfig time{2.0, 3, false};
+  InsGateConfig gate;
+};
+
+// Per reason, the poses a trajectory list refused (stats.json names them).
+struct PoseListCounts {
+  std::int64_t not_finite = 0, quaternion = 0, time_past = 0, time_repeated = 0, time_future = 0;
+  std::int64_t jump = 0, reanchors = 0, clock_steps = 0;
+  std::int64_t refused() const {
+    return not_finite + quaternion + time_past + time_repeated + time_future + jump;
+  }
 };
 
 // Reads a TUM-style list (`timestamp path`, '#' comments). A malformed line is an
-// error naming file and line. Out-of-order timestamps are kept but flagged so that
-// the frame is rejected and counted at replay.
+// error naming file and line. Timestamps the watermark refuses are kept but
+// flagged so that the frame is rejected and counted at replay.
 bool load_frame_list(const std::string& list_path, const std::string& base_dir,
-                     std::vector<FrameListEntry>* entries, std::string* error);
+                     std::vector<FrameListEntry>* entries, std::string* error,
+                     const TimeWatermarkConfig& time = ListFilterConfig{}.time);
 
 // Reads a TUM trajectory (`timestamp tx ty tz qx qy qz qw`). A malformed line is an
-// error; a sample with NaN, a non-unit quaternion or a time not after the previous
-// one is refused, counted in *rejected and described in *warnings (file:line).
+// error; a sample with NaN, a non-unit quaternion, a stamp the time watermark
+// refuses or a position the gate calls a jump is refused, counted in *rejected
+// (and per reason in *counts) and described in *warnings (file:line).
 bool load_trajectory(const std::string& path, PoseTrack* track, int* rejected,
-                     std::vector<std::string>* warnings, std::string* error);
+                     std::vector<std::string>* warnings, std::string* error,
+                     const ListFilterConfig& filter = {}, PoseListCounts* counts = nullptr);
 
 // The same from a stream (`name` stands for the file in messages): tests, fuzzing.
 bool parse_frame_list(std::istream& in, const std::string& name, const std::string& base_dir,
-                      std::vector<FrameListEntry>* entries, std::string* error);
+                      std::vector<FrameListEntry>* entries, std::string* error,
+                      const TimeWatermarkConfig& time = ListFilterConfig{}.time);
 bool parse_trajectory(std::istream& in, const std::string& name, PoseTrack* track, int* rejected,
-                      std::vector<std::string>* warnings, std::string* error);
+                      std::vector<std::string>* warnings, std::string* error,
+                      const ListFilterConfig& filter = {}, PoseListCounts* counts = nullptr);
 
 struct ReplayFrame {
   double time_s = 0.0;
@@ -60,6 +86,7 @@ class ReplaySequence {
   const CameraModel& camera() const { return camera_; }
   const PoseTrack& poses() const { return poses_; }
   int poses_rejected() const { return poses_rejected_; }
+  const PoseListCounts& pose_counts() const { return pose_counts_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
 
   // Decodes frame i into `frame` (whose buffers must come from make_frame()).
@@ -74,6 +101,7 @@ class ReplaySequence {
   std::vector<std::string> left_paths_;  // per frame, empty when none
   PoseTrack poses_{0.1, 0.02};
   int poses_rejected_ = 0;
+  PoseListCounts pose_counts_;
   std::vector<std::string> warnings_;
 };
 

@@ -44,7 +44,11 @@ BufferVerdict check_buffer(bool error_flag, std::uint32_t bytes_used, std::uint3
   // (unsigned difference: wraps at 2^32 correctly).
   if (has_last) {
     const std::uint32_t step = sequence - last_sequence;
-    if (step > 1 && step < 0x80000000u) v.lost_before = step - 1;
+    if (step > kMaxCountedSequenceGap && step < 0x80000000u) {
+      v.sequence_outlier = true;  // a bit flip or a garbage field, not 10000 lost frames
+    } else if (step > 1 && step < 0x80000000u) {
+      v.lost_before = step - 1;
+    }
   }
   if (error_flag) {
     v.why = "the driver flagged the buffer as corrupted (V4L2_BUF_FLAG_ERROR)";
@@ -57,7 +61,10 @@ BufferVerdict check_buffer(bool error_flag, std::uint32_t bytes_used, std::uint3
 }
 
 V4l2FrameSource::V4l2FrameSource(const V4l2Config& config, const CameraModel& camera)
-    : config_(config), camera_(camera), backoff_s_(config.reopen_backoff_min_s) {}
+    : config_(config),
+      camera_(camera),
+      backoff_s_(config.reopen_backoff_min_s),
+      frame_time_(config.time) {}
 
 V4l2FrameSource::~V4l2FrameSource() {
   close_device();
@@ -184,6 +191,7 @@ hal::FrameRead V4l2FrameSource::next(hal::ReplayFrame* frame, int wait_ms, std::
   const BufferVerdict verdict = check_buffer((buf.flags & V4L2_BUF_FLAG_ERROR) != 0, buf.bytesused,
                                              image_bytes_, buf.sequence, has_last_, last_sequence_);
   counters_.lost += verdict.lost_before;
+  counters_.sequence_outliers += verdict.sequence_outlier ? 1 : 0;
   has_last_ = true;
   last_sequence_ = buf.sequence;
   hal::FrameRead result = hal::FrameRead::kRejected;
@@ -198,8 +206,15 @@ hal::FrameRead V4l2FrameSource::next(hal::ReplayFrame* frame, int wait_ms, std::
     frame->time_s = static_cast<double>(buf.timestamp.tv_sec) +
                     static_cast<double>(buf.timestamp.tv_usec) * 1e-6;
     frame->has_left = false;
-    ++counters_.frames;
-    result = hal::FrameRead::kFrame;
+    const TimeVerdict time = frame_time_.offer(frame->time_s);
+    if (accepted(time)) {
+      counters_.clock_steps += time == TimeVerdict::kAdopted ? 1 : 0;
+      ++counters_.frames;
+      result = hal::FrameRead::kFrame;
+    } else {
+      ++counters_.rejected_time;
+      if (why != nullptr) why->assign(to_string(time));
+    }
   } else {
     if (buf.flags & V4L2_BUF_FLAG_ERROR) {
       ++counters_.rejected_error;

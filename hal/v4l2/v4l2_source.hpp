@@ -10,6 +10,7 @@
 #include <string>
 
 #include "hal/frames/frame_source.hpp"
+#include "zonemap/time_watermark.hpp"
 
 namespace zonemap::v4l2 {
 
@@ -20,19 +21,23 @@ struct V4l2Config {
   DepthFormat format = DepthFormat::kY16;
   int buffers = 4;
   double reopen_backoff_min_s = 0.2, reopen_backoff_max_s = 5.0;
+  TimeWatermarkConfig time;  // buffer timestamps: a lone one far off costs its frame
 };
 
 // The checks on one dequeued buffer (pure: tested on any host).
 struct BufferVerdict {
   bool usable = false;
-  const char* why = nullptr;     // when not usable
-  std::int64_t lost_before = 0;  // frames the driver skipped before this one
+  const char* why = nullptr;      // when not usable
+  std::int64_t lost_before = 0;   // frames the driver skipped before this one
+  bool sequence_outlier = false;  // a sequence number far ahead: not counted as lost frames
 };
+inline constexpr std::uint32_t kMaxCountedSequenceGap = 10000;  // ~5 min at 30 Hz
 BufferVerdict check_buffer(bool error_flag, std::uint32_t bytes_used, std::uint32_t expected_bytes,
                            std::uint32_t sequence, bool has_last, std::uint32_t last_sequence);
 
 struct V4l2Counters {
   std::int64_t frames = 0, rejected_size = 0, rejected_error = 0, lost = 0;
+  std::int64_t rejected_time = 0, sequence_outliers = 0, clock_steps = 0;
   std::int64_t device_errors = 0, reopens = 0;
 };
 
@@ -67,6 +72,7 @@ class V4l2FrameSource final : public hal::FrameSource {
   double backoff_s_ = 0.0, next_reopen_s_ = 0.0;
   bool ever_opened_ = false;
   V4l2Counters counters_;
+  TimeWatermark frame_time_;
 };
 
 }  // namespace zonemap::v4l2

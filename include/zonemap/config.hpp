@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <string>
 
+#include "zonemap/time_watermark.hpp"
+
 namespace zonemap {
 
 // Build-time maxima: the runtime configuration must stay within them. The zone
@@ -65,15 +67,18 @@ struct MapConfig {
   // How a frame is drawn into the local grid: walking every pixel's ray (the
   // reference) or visiting every frustum cell once (projective, fast).
   enum class Integration { kReference, kProjective };
-  Integration integration = Integration::kReference;
-  int blur_radius = 1;                    // binomial kernel radius (0 = no blur)
-  double saturation_units = 64.0;         // |fused cell| limit, in sensor-model units
-  double occupied_threshold_units = 1.5;  // fused value above which a cell is occupied
-  double free_threshold_units = -1.0;     // fused value below which a cell is free
+  Integration integration = Integration::kProjective;  // the reference stays available by name
+  int blur_radius = 1;                                 // binomial kernel radius (0 = no blur)
+  double saturation_units = 64.0;                      // |fused cell| limit, in sensor-model units
+  double occupied_threshold_units = 1.5;               // fused value above which a cell is occupied
+  double free_threshold_units = -1.0;                  // fused value below which a cell is free
   SkyFilterConfig sky;
   double pose_max_gap_s = 0.1;        // largest gap between two poses interpolated over
   double pose_tolerance_s = 0.02;     // nearest pose accepted at the ends of a trajectory
   double depth_scale_override = 0.0;  // > 0 replaces camera.yaml's depth_scale (TUM: 5000)
+  // Time order of frames and poses (time_watermark.hpp): a lone stamp far off costs
+  // only its item; a step that persists over confirm_values stamps is adopted.
+  TimeWatermarkConfig timestamps;
   FeatureConfig features;
   RuntimeConfig runtime;
 };

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "zonemap/pose_track.hpp"
+#include "zonemap/time_watermark.hpp"
 
 namespace zonemap {
 
@@ -30,6 +31,9 @@ struct InsGateConfig {
   // A jump that persists (consecutive solutions agreeing with each other) this long
   // is accepted as the new truth (e.g. GNSS re-acquired) and counted as a re-anchor.
   double reanchor_after_s = 1.0;
+  // Time order: one stamp far off is refused alone; a step that persists is
+  // adopted (counted as a clock step) and the jump check starts afresh.
+  TimeWatermarkConfig time;
 };
 
 enum class InsRejection : std::uint8_t {
@@ -39,6 +43,7 @@ enum class InsRejection : std::uint8_t {
   kTimeNotIncreasing,
   kJump,
   kInaccurate,
+  kTimeOutlier,  // far after the previous solution (held as a possible clock step)
   kCount
 };
 const char* to_string(InsRejection reason);
@@ -46,25 +51,30 @@ const char* to_string(InsRejection reason);
 struct InsGateCounters {
   std::int64_t accepted = 0;
   std::int64_t reanchors = 0;
+  std::int64_t clock_steps = 0;  // persistent time steps adopted
   std::array<std::int64_t, static_cast<int>(InsRejection::kCount)> rejected{};
   std::int64_t rejected_total() const;
 };
 
 class InsGate {
  public:
-  explicit InsGate(const InsGateConfig& config = {}) : config_(config) {}
+  explicit InsGate(const InsGateConfig& config = {}) : config_(config), time_(config.time) {}
 
   // True when the solution may be used; otherwise *why says which rule refused it
   // (the caller logs, rate-limited). Counts both. Allocation-free.
   bool check(const InsSolution& solution, InsRejection* why);
   const InsGateCounters& counters() const { return counters_; }
-  void reset_track() { has_last_ = false; }
+  void reset_track() {
+    has_last_ = false;
+    time_.reset();
+  }
 
  private:
   bool reject(InsRejection reason, InsRejection* why);
 
   InsGateConfig config_;
   InsGateCounters counters_;
+  TimeWatermark time_;
   bool has_last_ = false;
   double last_time_s_ = 0.0;
   Eigen::Vector3d last_position_ = Eigen::Vector3d::Zero();

@@ -64,6 +64,11 @@ class PoseBuffer {
     double newest = -std::numeric_limits<double>::infinity();
     for (std::uint64_t i = oldest_read; i < n; ++i) {
       const PoseSample& sample = scratch_[i % Capacity];
+      // A sample not after the one before it follows a clock step the INS gate
+      // adopted: the older clock's samples go, the newest clock's are kept.
+      if (!track->samples().empty() && !(sample.time_s > track->samples().back().time_s)) {
+        track->clear();
+      }
       if (track->append(sample)) newest = sample.time_s;
     }
     return newest;

@@ -11,6 +11,14 @@ using namespace zonemap;
 
 namespace {
 
+v4l2::V4l2Config device_config(const char* device, int buffers) {
+  v4l2::V4l2Config c;
+  c.device = device;
+  c.format = v4l2::DepthFormat::kY16;
+  c.buffers = buffers;
+  return c;
+}
+
 CameraModel vga() {
   CameraModel c;
   c.width = 640;
@@ -32,7 +40,7 @@ double monotonic_s() {
 }  // namespace
 
 TEST(V4l2Vm, StreamsY16FramesWithDriverTimestampsAndSequence) {
-  v4l2::V4l2FrameSource source({"/dev/video0", v4l2::DepthFormat::kY16, 4}, vga());
+  v4l2::V4l2FrameSource source(device_config("/dev/video0", 4), vga());
   std::string error;
   ASSERT_TRUE(source.open(&error)) << error;
   hal::ReplayFrame frame = source.make_frame();
@@ -59,7 +67,7 @@ TEST(V4l2Vm, StreamsY16FramesWithDriverTimestampsAndSequence) {
 }
 
 TEST(V4l2Vm, AStalledConsumerShowsLostFramesFromSequenceGaps) {
-  v4l2::V4l2FrameSource source({"/dev/video0", v4l2::DepthFormat::kY16, 2}, vga());
+  v4l2::V4l2FrameSource source(device_config("/dev/video0", 2), vga());
   std::string error;
   ASSERT_TRUE(source.open(&error)) << error;
   hal::ReplayFrame frame = source.make_frame();
@@ -85,11 +93,11 @@ TEST(V4l2Vm, AFormatTheDeviceCannotGiveIsAClearError) {
   CameraModel odd = vga();
   odd.width = 641;  // vivid's webcam input has discrete sizes only
   odd.height = 479;
-  v4l2::V4l2FrameSource source({"/dev/video0", v4l2::DepthFormat::kY16, 4}, odd);
+  v4l2::V4l2FrameSource source(device_config("/dev/video0", 4), odd);
   std::string error;
   EXPECT_FALSE(source.open(&error));
   EXPECT_NE(error.find("camera.yaml needs 641x479"), std::string::npos) << error;
-  v4l2::V4l2FrameSource missing({"/dev/video9", v4l2::DepthFormat::kY16, 4}, vga());
+  v4l2::V4l2FrameSource missing(device_config("/dev/video9", 4), vga());
   EXPECT_FALSE(missing.open(&error));
   EXPECT_NE(error.find("/dev/video9"), std::string::npos) << error;
 }

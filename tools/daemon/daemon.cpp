@@ -47,12 +47,15 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
     v4l2::V4l2Config v;
     v.device = config.v4l2_device;
     v.format = config.v4l2_format == "Z16" ? v4l2::DepthFormat::kZ16 : v4l2::DepthFormat::kY16;
+    v.time = map_config_.timestamps;
     auto camera = std::make_unique<v4l2::V4l2FrameSource>(v, camera_);
     if (!camera->open(error)) return false;
+    v4l2_ = camera.get();
     frames_ = std::move(camera);
   }
   const bool z_up = camera_.world_z_up;
   const Eigen::Isometry3d& mount = camera_.body_T_camera;
+  config_.gate.time = map_config_.timestamps;
   switch (config.poses) {
     case Poses::kSequence:
       if (sequence_.poses().size() == 0) {
@@ -66,11 +69,11 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
       std::unique_ptr<hal::PoseSource> log;
       if (config.poses == Poses::kLcmLog) {
         auto lcm = std::make_unique<lcm_link::LcmLogPoseSource>(
-            config.lcm_channel, z_up, config.gate, mount, config.time_offset_s);
+            config.lcm_channel, z_up, config_.gate, mount, config.time_offset_s);
         if (!lcm->open(config.pose_log_path, error)) return false;
         log = std::move(lcm);
       } else {
-        auto candump = std::make_unique<can::CandumpPoseSource>(config.can_profile, config.gate,
+        auto candump = std::make_unique<can::CandumpPoseSource>(config.can_profile, config_.gate,
                                                                 mount, config.time_offset_s);
         if (!candump->open(config.pose_log_path, error)) return false;
         log = std::move(candump);
@@ -91,11 +94,11 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
     }
     case Poses::kLcm:
       live_poses_ = std::make_unique<lcm_link::LcmPoseSource>(
-          config.lcm_url, config.lcm_channel, z_up, config.gate, mount, config.time_offset_s);
+          config.lcm_url, config.lcm_channel, z_up, config_.gate, mount, config.time_offset_s);
       break;
     case Poses::kCan:
       live_poses_ = std::make_unique<can::SocketCanPoseSource>(
-          config.can_interface, config.can_profile, config.gate, mount,
+          config.can_interface, config.can_profile, config_.gate, mount,
           config.time_offset_s + can::SocketCanPoseSource::monotonic_offset());
       break;
   }
@@ -210,13 +213,24 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   links.add("ins_poses_out", pose_counters_.poses_out);
   links.add("ins_link_errors", pose_counters_.link_errors);
   links.add("ins_reanchors", pose_counters_.gate.reanchors);
+  links.add("ins_clock_steps", pose_counters_.gate.clock_steps);
   for (int r = 0; r < static_cast<int>(InsRejection::kCount); ++r) {
-    static const char* const kNames[] = {"ins_rejected_not_finite", "ins_rejected_quaternion",
-                                         "ins_rejected_flags",      "ins_rejected_time",
-                                         "ins_rejected_jump",       "ins_rejected_accuracy"};
+    static const char* const kNames[] = {"ins_rejected_not_finite",  "ins_rejected_quaternion",
+                                         "ins_rejected_flags",       "ins_rejected_time",
+                                         "ins_rejected_jump",        "ins_rejected_accuracy",
+                                         "ins_rejected_time_outlier"};
+    static_assert(std::size(kNames) == static_cast<std::size_t>(InsRejection::kCount));
     links.add(kNames[r], pose_counters_.gate.rejected[static_cast<std::size_t>(r)]);
   }
   links.add("frames_lost", stats_.frames_lost);
+  if (v4l2_ != nullptr) {
+    const v4l2::V4l2Counters& v = v4l2_->counters();
+    links.add("v4l2_rejected_size", v.rejected_size);
+    links.add("v4l2_rejected_error", v.rejected_error);
+    links.add("v4l2_rejected_time", v.rejected_time);
+    links.add("v4l2_sequence_outliers", v.sequence_outliers);
+    links.add("v4l2_clock_steps", v.clock_steps);
+  }
   links.add("health_published", stats_.health_published);
   links.add("stopped_by_signal", stats_.stopped ? 1 : 0);
   for (const auto& sink : sinks_) sink->report(&links);

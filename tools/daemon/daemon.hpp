@@ -15,6 +15,10 @@
 #include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"
 
+namespace zonemap::v4l2 {
+class V4l2FrameSource;
+}
+
 namespace zonemap::daemon {
 
 class VehicleDaemon : private runtime::MappingHooks {
@@ -41,6 +45,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   CameraModel camera_;
   hal::ReplaySequence sequence_;
   std::unique_ptr<hal::FrameSource> frames_;
+  const v4l2::V4l2FrameSource* v4l2_ = nullptr;  // when frames_ is the camera
   std::unique_ptr<hal::PoseSource> live_poses_;
   PoseTrack log_poses_{0.1, 0.02};
   const PoseTrack* replay_poses_ = nullptr;

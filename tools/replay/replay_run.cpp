@@ -19,11 +19,42 @@ double mebibytes(std::uint64_t bytes) {
 }
 }  // namespace
 
+// What the sequence's lists refused, by kind (stats.json "rejections").
+void ReplayRun::count_list_rejections() {
+  std::int64_t future = 0, past = 0, repeated = 0, not_finite = 0, steps = 0;
+  for (std::size_t i = 0; i < sequence_.frame_count(); ++i) {
+    const hal::FrameListEntry& e = sequence_.entry(i);
+    future += e.time_verdict == TimeVerdict::kFuture;
+    past += e.time_verdict == TimeVerdict::kPast;
+    repeated += e.time_verdict == TimeVerdict::kRepeated;
+    not_finite += e.time_verdict == TimeVerdict::kNotFinite;
+    steps += e.time_verdict == TimeVerdict::kAdopted &&
+             (i == 0 || sequence_.entry(i - 1).time_verdict != TimeVerdict::kAdopted);
+  }
+  const hal::PoseListCounts& p = sequence_.pose_counts();
+  stats_.rejections = {{"frames_time_future", future},
+                       {"frames_time_past", past},
+                       {"frames_time_repeated", repeated},
+                       {"frames_time_not_finite", not_finite},
+                       {"frames_clock_steps", steps},
+                       {"poses_not_finite", p.not_finite},
+                       {"poses_quaternion", p.quaternion},
+                       {"poses_time_past", p.time_past},
+                       {"poses_time_repeated", p.time_repeated},
+                       {"poses_time_future", p.time_future},
+                       {"poses_jump", p.jump},
+                       {"poses_reanchors", p.reanchors},
+                       {"poses_clock_steps", p.clock_steps}};
+}
+
 void ReplayRun::log_rejection(const char* kind, std::int64_t count,
                               const std::string& message) const {
   if (options_.quiet) return;
   if (count <= kLoggedPerKind) {
-    std::fprintf(stderr, "\nzonemap-replay: %s: %s\n", kind, message.c_str());
+    // Starts a line of its own only when the progress line holds the cursor.
+    std::fprintf(stderr, "%szonemap-replay: %s: %s\n", progress_shown_ ? "\n" : "", kind,
+                 message.c_str());
+    progress_shown_ = false;
   }
   if (count == kLoggedPerKind) {
     std::fprintf(stderr, "zonemap-replay: further '%s' are counted in stats.json, not logged\n",
@@ -45,6 +76,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   }
   stats_ = hal::RunStats{};
   stats_.poses_rejected = sequence_.poses_rejected();
+  count_list_rejections();
   stats_.cell_size_m = config_.cell_size_m;
   schedule_ = ExtractionSchedule(config_.features.extract_every_frames);
 
@@ -157,9 +189,11 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
       last_progress = now;
       std::fprintf(stderr, "\rzonemap-replay: frame %zu/%zu, %.1f ms, %d zones live   ", i + 1, n,
                    ms, mapper_->zones().live_zone_count());
+      progress_shown_ = true;
     }
   }
-  if (show_progress) std::fprintf(stderr, "\n");
+  if (progress_shown_) std::fprintf(stderr, "\n");
+  progress_shown_ = false;
 }
 
 void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
@@ -171,7 +205,8 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   // Periodic extraction (ExtractionSchedule); the pipeline does its own on its
   // extraction thread, on the same schedule.
   if (!in_pipeline_) {
-    const int pick = schedule_.after_frame(stats_.frames_mapped, mapper_->zones().live_zone_count());
+    const int pick =
+        schedule_.after_frame(stats_.frames_mapped, mapper_->zones().live_zone_count());
     if (pick >= 0) extract_zone(pick);
   }
   if (!in_pipeline_) log_feature_store_events();

@@ -69,6 +69,8 @@ class ReplayRun : private runtime::MappingHooks {
   void account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                             const FrameReport& report, double mapping_ms);
   void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
+  void count_list_rejections();
+  mutable bool progress_shown_ = false;  // the progress line holds the cursor
 
   ReplayOptions options_;
   MapConfig config_;

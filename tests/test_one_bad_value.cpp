@@ -1,0 +1,338 @@
+// One bad value costs only itself: a stray timestamp, pose or image inside an
+// otherwise good flight is refused and counted, and the rest of the flight maps as
+// the clean run does. The time watermark and the INS gate on their own first, then
+// every kind of bad value, one at a time, in a replayed flight.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+#include "hal/output/run_outputs.hpp"
+#include "hal/replay/png_io.hpp"
+#include "test_support.hpp"
+#include "tools/replay/replay_run.hpp"
+#include "zonemap/ins_gate.hpp"
+#include "zonemap/pose_buffer.hpp"
+#include "zonemap/time_watermark.hpp"
+
+namespace zonemap {
+namespace {
+
+TEST(TimeWatermark, ALoneStampFarOffCostsOnlyItself) {
+  for (const double bad : {999999.0, -5.0, 0.35, double(NAN)}) {
+    TimeWatermark mark;
+    int refused = 0;
+    for (int i = 0; i < 20; ++i) {
+      const double t = i == 10 ? bad : 0.1 * i;
+      refused += accepted(mark.offer(t)) ? 0 : 1;
+    }
+    EXPECT_EQ(refused, 1) << "bad stamp " << bad;
+    EXPECT_EQ(mark.steps_adopted(), 0);
+    EXPECT_DOUBLE_EQ(mark.newest(), 1.9);
+  }
+  TimeWatermark mark;
+  EXPECT_EQ(mark.offer(1.0), TimeVerdict::kAccepted);
+  EXPECT_EQ(mark.offer(1.0), TimeVerdict::kRepeated);
+  EXPECT_EQ(mark.offer(0.5), TimeVerdict::kPast);
+  EXPECT_EQ(mark.offer(9.0), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(INFINITY), TimeVerdict::kNotFinite);
+  EXPECT_EQ(mark.offer(1.1), TimeVerdict::kAccepted);
+}
+
+TEST(TimeWatermark, AStepThatPersistsIsAdoptedAfterConfirmValues) {
+  TimeWatermarkConfig config;
+  config.confirm_values = 3;
+  TimeWatermark mark(config);
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(accepted(mark.offer(0.1 * i)));
+  // The clock jumps 100 s ahead and stays there: two refused, the third adopted.
+  EXPECT_EQ(mark.offer(100.0), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(100.1), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(100.2), TimeVerdict::kAdopted);
+  EXPECT_EQ(mark.adopted_run_length(), 3);
+  EXPECT_EQ(mark.offer(100.3), TimeVerdict::kAccepted);
+  EXPECT_EQ(mark.steps_adopted(), 1);
+  // A live clock that goes back (re-initialised) likewise.
+  EXPECT_EQ(mark.offer(3.0), TimeVerdict::kPast);
+  EXPECT_EQ(mark.offer(3.1), TimeVerdict::kPast);
+  EXPECT_EQ(mark.offer(3.2), TimeVerdict::kAdopted);
+  EXPECT_EQ(mark.steps_adopted(), 2);
+  // Two outliers that do not continue each other never add up to a step.
+  EXPECT_EQ(mark.offer(500.0), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(900.0), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(3.3), TimeVerdict::kAccepted);
+  EXPECT_EQ(mark.offer(700.0), TimeVerdict::kFuture);
+  EXPECT_EQ(mark.offer(3.4), TimeVerdict::kAccepted);
+  EXPECT_EQ(mark.steps_adopted(), 2);
+}
+
+TEST(TimeWatermark, AListTakesAForwardStepWholeAndNeverAdoptsAClockGoingBack) {
+  const double forward[] = {0.0, 0.1, 0.2, 50.0, 50.1, 50.2, 50.3, 0.3, 50.4};
+  TimeVerdict v[9];
+  filter_time_list(forward, 9, {2.0, 3, false}, v);
+  for (int i = 0; i < 7; ++i) EXPECT_TRUE(accepted(v[i])) << i;  // nothing lost to the step
+  EXPECT_EQ(v[7], TimeVerdict::kPast);                           // a lone stamp from before it
+  EXPECT_TRUE(accepted(v[8]));
+  const double back[] = {10.0, 10.1, 10.2, 1.0, 1.1, 1.2, 1.3};
+  filter_time_list(back, 7, {2.0, 3, false}, v);
+  for (int i = 3; i < 7; ++i) EXPECT_EQ(v[i], TimeVerdict::kPast) << i;
+}
+
+InsSolution valid_at(double t, const Eigen::Vector3d& p) {
+  InsSolution s;
+  s.time_s = t;
+  s.position_m = p;
+  s.attitude_valid = s.position_valid = true;
+  s.position_sigma_m = 0.1;
+  return s;
+}
+
+TEST(InsGate, OneSolutionWithAGarbageTimeCostsOnlyItself) {
+  for (const double bad : {99999.0, -1.0, 0.5, double(NAN)}) {
+    InsGate gate;
+    int refused = 0;
+    for (int i = 0; i < 200; ++i) {  // 100 Hz, 10 m/s
+      const double t = i == 100 ? bad : 0.01 * i;
+      refused += gate.check(valid_at(t, {0.1 * i, 0, 0}), nullptr) ? 0 : 1;
+    }
+    EXPECT_EQ(refused, 1) << "bad time " << bad;
+  }
+  // A clock that really stepped is adopted after three solutions, and counted.
+  InsGate gate;
+  for (int i = 0; i < 100; ++i)
+    ASSERT_TRUE(gate.check(valid_at(0.01 * i, {0.1 * i, 0, 0}), nullptr));
+  int refused = 0;
+  for (int i = 0; i < 100; ++i) {
+    refused += gate.check(valid_at(500.0 + 0.01 * i, {10 + 0.1 * i, 0, 0}), nullptr) ? 0 : 1;
+  }
+  EXPECT_EQ(refused, 2);
+  EXPECT_EQ(gate.counters().clock_steps, 1);
+  EXPECT_EQ(gate.counters().rejected[static_cast<int>(InsRejection::kTimeOutlier)], 2);
+}
+
+TEST(PoseBuffer, AfterAClockStepTheNewestClocksSamplesAreKept) {
+  PoseBuffer<16> buffer;
+  for (int i = 0; i < 8; ++i)
+    buffer.push({10.0 + 0.1 * i, Eigen::Vector3d(i, 0, 0), Eigen::Quaterniond::Identity()});
+  for (int i = 0; i < 4; ++i)
+    buffer.push({1.0 + 0.1 * i, Eigen::Vector3d(100 + i, 0, 0), Eigen::Quaterniond::Identity()});
+  PoseTrack track(0.5, 0.02);
+  track.reserve(16);
+  EXPECT_DOUBLE_EQ(buffer.snapshot(&track), 1.3);
+  ASSERT_EQ(track.size(), 4u);
+  Eigen::Isometry3d pose;
+  ASSERT_NE(track.lookup(1.15, &pose), PoseLookup::kNoPose);
+  EXPECT_NEAR(pose.translation().x(), 101.5, 1e-9);
+}
+
+// ---- one bad value in a replayed flight
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// Replaces line `n` (0-based, comments included) of a text file.
+void edit_line(const std::string& path, int n,
+               const std::function<std::string(const std::string&)>& fn) {
+  std::istringstream in(read_text(path));
+  std::ostringstream out;
+  std::string line;
+  for (int i = 0; std::getline(in, line); ++i) out << (i == n ? fn(line) : line) << "\n";
+  write_text(path, out.str());
+}
+std::vector<std::string> fields(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> f;
+  for (std::string x; in >> x;) f.push_back(x);
+  return f;
+}
+std::string joined(const std::vector<std::string>& f) {
+  std::string s;
+  for (const auto& x : f) s += (s.empty() ? "" : " ") + x;
+  return s;
+}
+
+struct RunResult {
+  hal::RunStats stats;
+  std::vector<ObstacleBox> boxes;
+  std::string json;
+};
+
+RunResult replay(const std::string& sequence, const std::string& config) {
+  tools::ReplayRun run;
+  tools::ReplayOptions options;
+  options.sequence_dir = sequence;
+  options.config_path = config;
+  options.quiet = true;
+  std::string error;
+  EXPECT_TRUE(run.open(options, &error)) << error;
+  run.run();
+  RunResult r;
+  r.stats = run.stats();
+  r.boxes = run.boxes(true);
+  testing::TempDir out;
+  EXPECT_TRUE(run.write_outputs(out.path(), &error)) << error;
+  r.json = read_text(out / "stats.json");
+  return r;
+}
+
+struct BadValue {
+  const char* name;
+  std::function<void(const std::string& seq)> inject;
+  int frames_lost;      // at most
+  const char* counted;  // the stats.json key that counts it
+};
+
+class OneBadValue : public ::testing::TestWithParam<BadValue> {};
+
+// Frame 20 of 40 (line 21 of depth.txt / groundtruth.txt: line 0 is a comment).
+constexpr int kLine = 21;
+
+const BadValue kBadValues[] = {
+    {"FrameStampFarInTheFuture",
+     [](const std::string& s) {
+       edit_line(s + "/depth.txt", kLine,
+                 [](const std::string& l) { return "999999999 " + fields(l)[1]; });
+     },
+     1, "frames_time_future"},
+    {"FrameStampFromThePast",
+     [](const std::string& s) {
+       edit_line(s + "/depth.txt", kLine,
+                 [](const std::string& l) { return "0.5 " + fields(l)[1]; });
+     },
+     1, "frames_time_past"},
+    {"FrameStampRepeated",
+     [](const std::string& s) {
+       const auto prev = fields([&] {
+         std::istringstream in(read_text(s + "/depth.txt"));
+         std::string line;
+         for (int i = 0; i < kLine && std::getline(in, line); ++i) {
+         }
+         return line;
+       }());
+       edit_line(s + "/depth.txt", kLine,
+                 [&](const std::string& l) { return prev[0] + " " + fields(l)[1]; });
+     },
+     1, "frames_time_repeated"},
+    {"FrameStampNan",
+     [](const std::string& s) {
+       edit_line(s + "/depth.txt", kLine,
+                 [](const std::string& l) { return "nan " + fields(l)[1]; });
+     },
+     1, "frames_time_not_finite"},
+    {"PoseStampFarInTheFuture",
+     [](const std::string& s) {
+       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
+         auto f = fields(l);
+         f[0] = "99999.0";
+         return joined(f);
+       });
+     },
+     1, "poses_time_future"},
+    {"PoseStampFromThePast",
+     [](const std::string& s) {
+       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
+         auto f = fields(l);
+         f[0] = "0.3";
+         return joined(f);
+       });
+     },
+     1, "poses_time_past"},
+    {"PoseNan",
+     [](const std::string& s) {
+       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
+         auto f = fields(l);
+         f[2] = "nan";
+         return joined(f);
+       });
+     },
+     1, "poses_not_finite"},
+    {"PoseQuaternionNotUnit",
+     [](const std::string& s) {
+       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
+         auto f = fields(l);
+         f[7] = "1.5";
+         return joined(f);
+       });
+     },
+     1, "poses_quaternion"},
+    {"PoseOneKilometreAway",
+     [](const std::string& s) {
+       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
+         auto f = fields(l);
+         f[1] = std::to_string(std::stod(f[1]) + 1000.0);
+         return joined(f);
+       });
+     },
+     1, "poses_jump"},
+    {"CorruptPng",
+     [](const std::string& s) { write_text(s + "/depth/000020.png", "\x89PNG\r\n\x1a\n garbage"); },
+     1, "frames_rejected_bad_image"},
+    {"TruncatedPng",
+     [](const std::string& s) {
+       const std::string png = read_text(s + "/depth/000020.png");
+       write_text(s + "/depth/000020.png", png.substr(0, png.size() / 2));
+     },
+     1, "frames_rejected_bad_image"},
+    {"WrongSizeFrame",
+     [](const std::string& s) {
+       // A valid 16-bit PNG at half the size.
+       std::vector<std::uint16_t> depth(320 * 240, 20000);
+       std::string error;
+       ASSERT_TRUE(hal::write_png_gray16(s + "/depth/000020.png", 320, 240, depth.data(), &error));
+     },
+     1, "frames_rejected_bad_image"},
+};
+
+// The value stats.json gives `key` (top level or in "rejections").
+std::int64_t counter(const std::string& json, const std::string& key) {
+  const auto at = json.find("\"" + key + "\": ");
+  if (at == std::string::npos) return -1;
+  return std::stoll(json.substr(at + key.size() + 4));
+}
+
+TEST_P(OneBadValue, CostsAtMostTheFramesItTouchesAndTheRestMapsAsTheCleanRun) {
+  const BadValue& bad = GetParam();
+  testing::TempDir dir;
+  const std::string clean_seq = dir / "clean", bad_seq = dir / "bad";
+  const std::string config = testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, 40);
+  ASSERT_FALSE(config.empty());
+  std::filesystem::copy(clean_seq, bad_seq, std::filesystem::copy_options::recursive);
+  bad.inject(bad_seq);
+  const RunResult clean = replay(clean_seq, config);
+  const RunResult got = replay(bad_seq, config);
+  ASSERT_EQ(clean.stats.frames_mapped, 40);
+  EXPECT_GE(got.stats.frames_mapped, 40 - bad.frames_lost) << got.json;
+  EXPECT_EQ(got.stats.frames_in,
+            got.stats.frames_mapped + got.stats.frames_rejected + got.stats.frames_skipped_no_pose);
+  EXPECT_EQ(counter(got.json, bad.counted), 1) << bad.counted << "\n" << got.json;
+  EXPECT_EQ(got.stats.zones_allocated, clean.stats.zones_allocated)
+      << "mapped where the vehicle never was";
+  // The same objects, within a cell (one frame fewer may move a box edge by a cell).
+  ASSERT_EQ(got.boxes.size(), clean.boxes.size()) << got.json;
+  const double cell = clean.stats.cell_size_m;
+  for (std::size_t i = 0; i < got.boxes.size(); ++i) {
+    EXPECT_LE((got.boxes[i].min - clean.boxes[i].min).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+    EXPECT_LE((got.boxes[i].max - clean.boxes[i].max).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+  }
+  if (got.stats.frames_mapped == clean.stats.frames_mapped) {  // nothing lost: the clean map
+    for (std::size_t i = 0; i < got.boxes.size(); ++i)
+      EXPECT_EQ(got.boxes[i].cells, clean.boxes[i].cells) << i;
+  }
+}
+
+std::string bad_value_name(const ::testing::TestParamInfo<BadValue>& param) {
+  return param.param.name;
+}
+INSTANTIATE_TEST_SUITE_P(Replay, OneBadValue, ::testing::ValuesIn(kBadValues), bad_value_name);
+
+}  // namespace
+}  // namespace zonemap

@@ -35,6 +35,8 @@ std::string validate(const MapConfig& c) {
   } else if (c.sky.min_intensity < 0 || c.sky.min_intensity > 255 || c.sky.max_gradient < 0 ||
              c.sky.max_gradient > 255) {
     why << "sky_filter.min_intensity and max_gradient must be in [0, 255]";
+  } else if (!(c.above_camera_m >= 0.0) || !std::isfinite(c.above_camera_m)) {
+    why << "map.above_camera_m must be >= 0";
   } else if (!(c.timestamps.max_step_s > 0.0) || c.timestamps.confirm_values < 2 ||
              c.timestamps.confirm_values > 100) {
     why << "timestamps.max_step_s must be > 0 and timestamps.confirm_values in [2, 100]";

@@ -196,9 +196,9 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     return report;
   }
 
-  // The environment cube follows the camera, centred on the camera's cell.
+  // The environment cube follows the camera (centred, or reaching below it).
   const CellIndex camera_cell = cell_of(world_T_camera.translation());
-  const CellIndex origin = zones_.environment_origin(camera_cell);
+  const CellIndex origin = zones_.environment_origin(camera_cell, camera_.world_z_up);
   report.zones_allocated = zones_.move_environment(origin);
   local_.reset(origin);
 

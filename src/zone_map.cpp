@@ -9,6 +9,11 @@ namespace zonemap {
 
 ZoneMap::ZoneMap(const MapConfig& config)
     : dims_(config.zone_cells),
+      placement_(config.placement),
+      above_cells_(
+          std::clamp(static_cast<int>(std::ceil(config.above_camera_m / config.cell_size_m)), 0,
+                     config.zone_cells[2] - 1)),
+      z_phase_(config.placement == MapConfig::Placement::kBelow ? -(config.zone_cells[2] / 2) : 0),
       cells_per_zone_(zone_cell_count(config)),
       limit_(static_cast<FusedCell>(std::min(to_fixed(static_cast<float>(config.saturation_units)),
                                              kMaxFusedUnits * kCellScale))),
@@ -51,20 +56,26 @@ bool ZoneMap::add_observer(ZoneObserver* observer) {
   return true;
 }
 
-CellIndex ZoneMap::environment_origin(const CellIndex& camera_cell) const {
-  return CellIndex{camera_cell.x - dims_[0] / 2, camera_cell.y - dims_[1] / 2,
-                   camera_cell.z - dims_[2] / 2};
+CellIndex ZoneMap::environment_origin(const CellIndex& camera_cell, bool world_z_up) const {
+  std::int32_t z = camera_cell.z - dims_[2] / 2;
+  if (placement_ == MapConfig::Placement::kBelow) {
+    // above_cells_ cells between the camera's cell and the top face (z up), or the
+    // bottom face when z points down.
+    z = world_z_up ? camera_cell.z - (dims_[2] - 1 - above_cells_) : camera_cell.z - above_cells_;
+  }
+  return CellIndex{camera_cell.x - dims_[0] / 2, camera_cell.y - dims_[1] / 2, z};
 }
 
 ZoneKey ZoneMap::key_of(const CellIndex& cell) const {
   return ZoneKey{floor_div(cell.x, dims_[0]), floor_div(cell.y, dims_[1]),
-                 floor_div(cell.z, dims_[2])};
+                 floor_div(cell.z - z_phase_, dims_[2])};
 }
 
 ZoneView ZoneMap::view_of(const Slot& slot) const {
-  return ZoneView{slot.key,
-                  CellIndex{slot.key.i * dims_[0], slot.key.j * dims_[1], slot.key.k * dims_[2]},
-                  dims_, slot.cells};
+  return ZoneView{
+      slot.key,
+      CellIndex{slot.key.i * dims_[0], slot.key.j * dims_[1], slot.key.k * dims_[2] + z_phase_},
+      dims_, slot.cells};
 }
 
 ZoneMap::Slot* ZoneMap::find(const ZoneKey& key) {

@@ -191,6 +191,10 @@ struct BadValue {
   const char* counted;  // the stats.json key that counts it
 };
 
+void PrintTo(const BadValue& bad, std::ostream* out) {
+  *out << bad.name;
+}
+
 class OneBadValue : public ::testing::TestWithParam<BadValue> {};
 
 // Frame 20 of 40 (line 21 of depth.txt / groundtruth.txt: line 0 is a comment).

@@ -28,6 +28,8 @@ MapConfig small_config() {
   config.zone_cells = {10, 10, 4};
   config.d_min_m = 1.0;
   config.d_max_m = 8.0;
+  config.placement =
+      MapConfig::Placement::kCentred;  // the paper's geometry, as these tests draw it
   return config;
 }
 
@@ -35,6 +37,20 @@ TEST(ZoneMap, EnvironmentIsCentredOnTheCameraCell) {
   ZoneMap zones(small_config());
   const CellIndex origin = zones.environment_origin({23, -7, 1});
   EXPECT_EQ(origin, (CellIndex{18, -12, -1}));
+}
+
+TEST(ZoneMap, EnvironmentBelowTheCameraReachesDown) {
+  MapConfig config = small_config();
+  config.placement = MapConfig::Placement::kBelow;
+  config.zone_cells = {10, 10, 20};
+  config.above_camera_m = 2.0;  // two cells above the camera's cell
+  ZoneMap zones(config);
+  // z up: the camera's cell is the third from the top (z = 8 of -9..10).
+  EXPECT_EQ(zones.environment_origin({23, -7, 8}, true), (CellIndex{18, -12, -9}));
+  // NED (z down): the same, mirrored: the environment reaches to larger z.
+  EXPECT_EQ(zones.environment_origin({23, -7, -8}, false), (CellIndex{18, -12, -10}));
+  config.above_camera_m = 100.0;  // more than the environment: the camera at its bottom
+  EXPECT_EQ(ZoneMap(config).environment_origin({0, 0, 8}, true).z, 8);
 }
 
 TEST(ZoneMap, KeysUseFloorDivisionForNegativeCells) {

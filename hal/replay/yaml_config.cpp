@@ -19,6 +19,16 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
       }
       for (int i = 0; i < 3; ++i) c.zone_cells[static_cast<std::size_t>(i)] = node[i].as<int>();
     };
+    auto placement = [&](const YAML::Node& node) {
+      const std::string v = node.as<std::string>();
+      if (v == "below") {
+        c.placement = MapConfig::Placement::kBelow;
+      } else if (v == "centred") {
+        c.placement = MapConfig::Placement::kCentred;
+      } else {
+        throw ParseError{where(path, node) + ": map.environment must be 'below' or 'centred'"};
+      }
+    };
     auto integration = [&](const YAML::Node& node) {
       const std::string mode = node.as<std::string>();
       if (mode == "reference") {
@@ -37,8 +47,10 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
     };
     read_section(
         path, root, "",
-        {{"map",
-          section("map", {{"cell_size_m", into(&c.cell_size_m)}, {"zone_cells", zone_cells}})},
+        {{"map", section("map", {{"cell_size_m", into(&c.cell_size_m)},
+                                 {"zone_cells", zone_cells},
+                                 {"environment", placement},
+                                 {"above_camera_m", into(&c.above_camera_m)}})},
          {"sensor", section("sensor", {{"d_min_m", into(&c.d_min_m)},
                                        {"d_max_m", into(&c.d_max_m)},
                                        {"pixel_step", into(&c.pixel_step)},

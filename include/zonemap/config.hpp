@@ -61,6 +61,14 @@ struct RuntimeConfig {
 struct MapConfig {
   double cell_size_m = 1.0;
   std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
+  // Where the sensor environment (a zone-sized cube) sits about the camera. The
+  // paper centres it; a camera looking down then never maps what stands below
+  // half the environment's height ("objects 5 m below the helicopter are not
+  // recorded"). kBelow puts the camera above_camera_m under the environment's top,
+  // so the rest of its height reaches down towards the ground.
+  enum class Placement { kCentred, kBelow };
+  Placement placement = Placement::kCentred;  // shipped configs name theirs
+  double above_camera_m = 2.0;
   double d_min_m = 8.0;
   double d_max_m = 50.0;
   int pixel_step = 1;  // 1 maps every pixel, as the paper does

@@ -62,8 +62,9 @@ class ZoneMap {
   bool replace_observer(ZoneObserver* current, ZoneObserver* replacement);
   static constexpr int kMaxObservers = 4;
 
-  // The environment cube (zone-sized) centred on `camera_cell`: its minimum corner.
-  CellIndex environment_origin(const CellIndex& camera_cell) const;
+  // The environment cube (zone-sized) about `camera_cell` (MapConfig::placement):
+  // its minimum corner. world_z_up tells which way "below" is.
+  CellIndex environment_origin(const CellIndex& camera_cell, bool world_z_up = true) const;
 
   // Makes the zones overlapping the environment with minimum corner `origin` hold
   // a grid: new ones are taken from the pool and cleared, zones left behind are
@@ -112,6 +113,13 @@ class ZoneMap {
   const Slot* find(const ZoneKey& key) const;
 
   std::array<int, 3> dims_;
+  MapConfig::Placement placement_;
+  int above_cells_;  // kBelow: cells between the camera's cell and the environment's top
+  // Zone faces in z lie at k * dims_z + z_phase_. kBelow reaches down to the ground,
+  // which usually lies at z = 0 (the take-off level): half a zone of phase keeps it
+  // inside a zone instead of on a face, where the ground layer would be cut in two
+  // and its lower half read as an obstacle standing in the upper zone's floor.
+  int z_phase_;
   std::size_t cells_per_zone_;
   FusedCell limit_;
   std::unique_ptr<FusedCell[]> pool_;

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -37,6 +38,8 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
         if (c.size() != 2 || z.size() != 2)
           throw YAML::Exception(o.Mark(), "cylinder needs center [x, y] and z [min, max]");
         t.centre = Eigen::Vector2d(c[0], c[1]);
+        t.cylinder = true;
+        t.radius = r;
         t.min = Eigen::Vector3d(c[0] - r, c[1] - r, z[0]);
         t.max = Eigen::Vector3d(c[0] + r, c[1] + r, z[1]);
       } else if (type == "box") {
@@ -50,6 +53,7 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
       } else {
         throw YAML::Exception(o.Mark(), "unknown object type '" + type + "'");
       }
+      if (o["pixel_hits"]) t.pixel_hits = o["pixel_hits"].as<std::int64_t>();
       objects->push_back(t);
     }
   } catch (const YAML::BadFile&) {
@@ -87,16 +91,76 @@ bool load_boxes_csv(const std::string& path, std::vector<RunBox>* boxes, std::st
   return true;
 }
 
+double TruthObject::distance_xy(double x, double y) const {
+  if (cylinder) return std::max(0.0, std::hypot(x - centre.x(), y - centre.y()) - radius);
+  const double dx = std::max({min.x() - x, 0.0, x - max.x()});
+  const double dy = std::max({min.y() - y, 0.0, y - max.y()});
+  return std::hypot(dx, dy);
+}
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// Gap between two objects' x-y extents (0 when they overlap).
+double gap_xy(const TruthObject& a, const TruthObject& b) {
+  const double dx = std::max({a.min.x() - b.max.x(), 0.0, b.min.x() - a.max.x()});
+  const double dy = std::max({a.min.y() - b.max.y(), 0.0, b.min.y() - a.max.y()});
+  return std::hypot(dx, dy);
+}
+
+// The share of a box's x-y area within kPurityMarginM of some object, and its area
+// (sampled on a grid of at most 200 x 200 points, at least every 0.1 m).
+std::pair<double, double> pure_area(const RunBox& b, const std::vector<TruthObject>& objects) {
+  const double w = b.max.x() - b.min.x(), h = b.max.y() - b.min.y();
+  const int nx = std::clamp(static_cast<int>(std::ceil(w / 0.1)), 1, 200);
+  const int ny = std::clamp(static_cast<int>(std::ceil(h / 0.1)), 1, 200);
+  int near = 0;
+  for (int i = 0; i < nx; ++i) {
+    for (int j = 0; j < ny; ++j) {
+      const double x = b.min.x() + (i + 0.5) * w / nx, y = b.min.y() + (j + 0.5) * h / ny;
+      for (const TruthObject& o : objects) {
+        if (o.distance_xy(x, y) <= kPurityMarginM) {
+          ++near;
+          break;
+        }
+      }
+    }
+  }
+  const double area = std::max(w, 0.0) * std::max(h, 0.0);
+  return {area * near / (nx * ny), area};
+}
+
+}  // namespace
+
 Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<RunBox>& boxes,
                     double tolerance_m) {
   Evaluation e;
-  int detected = 0;
+  std::vector<double> excess, coverage;
+  int separated = 0;
   for (const TruthObject& o : objects) {
     ObjectResult r;
     r.name = o.name;
+    r.seen = o.pixel_hits < 0 || o.pixel_hits >= kSeenPixelHits;
     double best = INFINITY;
+    Eigen::Vector3d union_min = Eigen::Vector3d::Constant(INFINITY);
+    Eigen::Vector3d union_max = Eigen::Vector3d::Constant(-INFINITY);
+    bool swallows_another = false;
     for (const RunBox& b : boxes) {
       if (b.kind != "obstacle" || !overlaps(o.min, o.max, b.min, b.max, tolerance_m)) continue;
+      ++r.boxes;
+      union_min = union_min.cwiseMin(b.min);
+      union_max = union_max.cwiseMax(b.max);
+      for (const TruthObject& other : objects) {
+        if (&other != &o && gap_xy(o, other) >= kSeparationM &&
+            overlaps(other.min, other.max, b.min, b.max, 0.0)) {
+          swallows_another = true;
+        }
+      }
       const Eigen::Vector2d c((b.min.x() + b.max.x()) / 2, (b.min.y() + b.max.y()) / 2);
       const double d = (c - o.centre).norm();
       if (d < best) {
@@ -107,9 +171,27 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
         r.box_centre = c;
       }
     }
-    detected += r.detected ? 1 : 0;
+    if (r.detected) {
+      r.separated = !swallows_another;
+      r.excess_m = std::max({o.min.x() - union_min.x(), union_max.x() - o.max.x(),
+                             o.min.y() - union_min.y(), union_max.y() - o.max.y(), 0.0});
+      const double height = o.max.z() - o.min.z();
+      const double covered =
+          std::min(o.max.z(), union_max.z()) - std::max(o.min.z(), union_min.z());
+      r.z_coverage = height > 0.0 ? std::clamp(covered / height, 0.0, 1.0) : 1.0;
+    }
+    if (r.seen) {
+      ++e.objects_seen;
+      if (r.detected) {
+        ++e.objects_found;
+        separated += r.separated ? 1 : 0;
+        excess.push_back(r.excess_m);
+        coverage.push_back(r.z_coverage);
+      }
+    }
     e.objects.push_back(r);
   }
+  double pure = 0.0, area = 0.0;
   for (const RunBox& b : boxes) {
     if (b.kind != "obstacle") continue;
     ++e.obstacle_boxes;
@@ -117,12 +199,20 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
     for (const TruthObject& o : objects)
       touches = touches || overlaps(o.min, o.max, b.min, b.max, tolerance_m);
     if (!touches) ++e.boxes_touching_no_object;
+    const auto [p, a] = pure_area(b, objects);
+    pure += p;
+    area += a;
   }
-  e.recall =
-      objects.empty() ? 1.0 : static_cast<double>(detected) / static_cast<double>(objects.size());
+  e.recall = e.objects_seen == 0 ? 1.0 : static_cast<double>(e.objects_found) / e.objects_seen;
   e.false_box_fraction = e.obstacle_boxes == 0 ? 0.0
                                                : static_cast<double>(e.boxes_touching_no_object) /
                                                      static_cast<double>(e.obstacle_boxes);
+  e.separated = e.objects_found == 0 ? 0.0 : static_cast<double>(separated) / e.objects_found;
+  e.excess_median_m = median(excess);
+  e.excess_max_m = excess.empty() ? 0.0 : *std::max_element(excess.begin(), excess.end());
+  e.purity = area > 0.0 ? pure / area : 1.0;
+  e.z_coverage_median = median(coverage);
+  e.z_coverage_min = coverage.empty() ? 0.0 : *std::min_element(coverage.begin(), coverage.end());
   return e;
 }
 
@@ -131,14 +221,25 @@ std::string to_json(const Evaluation& e) {
   char buf[256];
   out << "{\n  \"recall\": " << e.recall << ",\n  \"obstacle_boxes\": " << e.obstacle_boxes
       << ",\n  \"boxes_touching_no_object\": " << e.boxes_touching_no_object
-      << ",\n  \"false_box_fraction\": " << e.false_box_fraction << ",\n  \"objects\": [";
+      << ",\n  \"false_box_fraction\": " << e.false_box_fraction
+      << ",\n  \"objects_seen\": " << e.objects_seen
+      << ",\n  \"objects_found\": " << e.objects_found << ",\n  \"separated\": " << e.separated
+      << ",\n  \"excess_m\": {\"median\": " << e.excess_median_m << ", \"max\": " << e.excess_max_m
+      << "}"
+      << ",\n  \"purity\": " << e.purity
+      << ",\n  \"z_coverage\": {\"median\": " << e.z_coverage_median
+      << ", \"min\": " << e.z_coverage_min << "}"
+      << ",\n  \"false_boxes\": " << e.boxes_touching_no_object << ",\n  \"objects\": [";
   for (std::size_t i = 0; i < e.objects.size(); ++i) {
     const ObjectResult& r = e.objects[i];
     std::snprintf(buf, sizeof(buf),
-                  "%s\n    {\"name\": \"%s\", \"detected\": %s, \"box_id\": %u, "
-                  "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f]}",
-                  i ? "," : "", r.name.c_str(), r.detected ? "true" : "false", r.box_id,
-                  r.centre_error_xy_m, r.box_centre.x(), r.box_centre.y());
+                  "%s\n    {\"name\": \"%s\", \"seen\": %s, \"detected\": %s, \"box_id\": %u, "
+                  "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f], \"boxes\": %d, "
+                  "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f}",
+                  i ? "," : "", r.name.c_str(), r.seen ? "true" : "false",
+                  r.detected ? "true" : "false", r.box_id, r.centre_error_xy_m, r.box_centre.x(),
+                  r.box_centre.y(), r.boxes, r.separated ? "true" : "false", r.excess_m,
+                  r.z_coverage);
     out << buf;
   }
   out << "\n  ]\n}\n";
@@ -148,17 +249,23 @@ std::string to_json(const Evaluation& e) {
 std::string to_table(const Evaluation& e) {
   std::ostringstream out;
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%-22s %-9s %6s %12s\n", "object", "detected", "box",
-                "xy error m");
+  std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %7s\n", "object", "seen",
+                "detected", "box", "xy error m", "separate", "excess m", "z cover");
   out << buf;
   for (const ObjectResult& r : e.objects) {
-    std::snprintf(buf, sizeof(buf), "%-22s %-9s %6u %12.2f\n", r.name.c_str(),
-                  r.detected ? "yes" : "NO", r.box_id, r.centre_error_xy_m);
+    std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %6.0f%%\n",
+                  r.name.c_str(), r.seen ? "yes" : "no", r.detected ? "yes" : "NO", r.box_id,
+                  r.centre_error_xy_m, r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m,
+                  100.0 * r.z_coverage);
     out << buf;
   }
-  std::snprintf(
-      buf, sizeof(buf), "recall %.1f%%; %d obstacle boxes, %d (%.1f%%) touching no object\n",
-      100.0 * e.recall, e.obstacle_boxes, e.boxes_touching_no_object, 100.0 * e.false_box_fraction);
+  std::snprintf(buf, sizeof(buf),
+                "recall %.1f%% (%d of %d seen); separated %.0f%%; excess median %.2f m, max "
+                "%.2f m; purity %.0f%%; z coverage median %.0f%%, min %.0f%%; %d obstacle boxes, "
+                "%d false (touching no object)\n",
+                100.0 * e.recall, e.objects_found, e.objects_seen, 100.0 * e.separated,
+                e.excess_median_m, e.excess_max_m, 100.0 * e.purity, 100.0 * e.z_coverage_median,
+                100.0 * e.z_coverage_min, e.obstacle_boxes, e.boxes_touching_no_object);
   out << buf;
   return out.str();
 }

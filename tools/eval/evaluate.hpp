@@ -1,8 +1,12 @@
 // Evaluation of a run's obstacle boxes against a sequence's ground truth
-// (objects.yaml): detection per object, recall, boxes touching no object, and
-// x-y centre errors. Used by zonemap-eval and by the scenario regression tests.
+// (objects.yaml), as a planner needs them: every object the camera saw found
+// (recall), each in a box of its own (separated), boxes tight around it (excess,
+// purity), down to the ground (z coverage), and no box where nothing is (false
+// boxes). A box holding twelve objects is one detection that separates none.
+// Used by zonemap-eval and by the scenario regression tests.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -15,7 +19,16 @@ struct TruthObject {
   Eigen::Vector3d min;  // axis-aligned bounds (a cylinder's bounding box)
   Eigen::Vector3d max;
   Eigen::Vector2d centre;  // x-y centre (a cylinder's axis)
+  bool cylinder = false;
+  double radius = 0.0;
+  std::int64_t pixel_hits = -1;  // objects.yaml's count of depth pixels on it; -1: not given
+  // Horizontal distance from (x, y) to the object's footprint (0 inside).
+  double distance_xy(double x, double y) const;
 };
+
+inline constexpr std::int64_t kSeenPixelHits = 1000;  // the camera saw it well enough to map
+inline constexpr double kPurityMarginM = 0.5;         // box area this near an object is object
+inline constexpr double kSeparationM = 1.0;           // objects this far apart need two boxes
 
 struct RunBox {
   unsigned id = 0;
@@ -27,18 +40,28 @@ struct RunBox {
 
 struct ObjectResult {
   std::string name;
+  bool seen = true;  // pixel_hits >= kSeenPixelHits (or not given)
   bool detected = false;
   unsigned box_id = 0;
   double centre_error_xy_m = 0.0;
   Eigen::Vector2d box_centre = Eigen::Vector2d::Zero();
+  int boxes = 0;            // obstacle boxes overlapping it
+  bool separated = false;   // none of them overlaps another object >= kSeparationM away
+  double excess_m = 0.0;    // how far its boxes' union reaches past its x-y extent (largest side)
+  double z_coverage = 0.0;  // share of its height its boxes cover
 };
 
 struct Evaluation {
   std::vector<ObjectResult> objects;
   int obstacle_boxes = 0;
-  int boxes_touching_no_object = 0;
-  double recall = 0.0;
+  int boxes_touching_no_object = 0;  // false boxes
+  int objects_seen = 0, objects_found = 0;
+  double recall = 0.0;  // found / seen
   double false_box_fraction = 0.0;
+  double separated = 0.0;  // of the objects found
+  double excess_median_m = 0.0, excess_max_m = 0.0;
+  double purity = 0.0;  // obstacle-box x-y area within kPurityMarginM of an object / all of it
+  double z_coverage_median = 0.0, z_coverage_min = 0.0;
 };
 
 bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* objects,

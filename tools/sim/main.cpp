@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
       options.frame_rate_hz = std::strtod(value, &end);
     } else if (arg == "--seed") {
       render.seed = std::strtoull(value, &end, 10);
+      options.seed = render.seed;
     } else if (arg == "--frames") {
       max_frames = std::strtol(value, &end, 10);
     } else {

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "tools/sim/scene.hpp"
+
 namespace zonemap::sim {
 namespace {
 
@@ -39,7 +41,8 @@ CameraModel paper_camera(int width) {
 }
 
 std::vector<std::string> scenario_names() {
-  return {"bushes", "treeline", "posts-through", "posts-around", "out-and-back"};
+  return {"bushes",       "treeline",       "posts-through", "posts-around",
+          "out-and-back", "treeline-dense", "hedge",         "posts-high"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -96,6 +99,46 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
         s->trajectory.push_back({i / rate, look_pose(p, yaw, 10 * kDeg)});
       }
     }
+  } else if (name == "treeline-dense") {
+    // A tree line as users fly it: 18 trees 5.2 m apart with 0.5-3 m gaps, 9-17 m
+    // tall, approached from 70 m at 15-25 m altitude (first seen at 40-50 m, where
+    // eq. 1's range resolution is 2-3 m).
+    s->description = "a dense tree line approached from 70 m at altitude";
+    s->config = "config/paper-flight2.yaml";
+    Rng rng(options.seed);
+    for (int i = 0; i < 18; ++i) {
+      const double gap = 0.5 + 2.5 * rng.uniform();
+      const double radius = (5.2 - gap) / 2.0;
+      const double height = 9.0 + 8.0 * rng.uniform();
+      s->scene.cylinders.push_back({"tree_" + std::to_string(i + 1),
+                                    Eigen::Vector2d(70.0, -44.2 + 5.2 * i), radius, 0.0, height});
+    }
+    const double altitude = 15.0 + 10.0 * rng.uniform();
+    s->trajectory = straight({0, 0, altitude}, {62, 0, altitude}, 5.0, 20 * kDeg, rate);
+  } else if (name == "hedge") {
+    // Bushes 2-3 m tall with 1.4 m gaps and a small aircraft, flown towards at 10 m.
+    s->description = "a hedge of bushes with gaps and a small aircraft, flown towards at 10 m";
+    s->config = "config/paper-flight2.yaml";
+    Rng rng(options.seed);
+    double x = 30.0;
+    for (int i = 0; i < 14; ++i) {
+      const double width = 1.5 + 1.5 * rng.uniform();
+      const double height = 2.0 + rng.uniform();
+      s->scene.boxes.push_back({"bush_" + std::to_string(i + 1), Eigen::Vector3d(x, 14.0, 0.0),
+                                Eigen::Vector3d(x + width, 16.5, height)});
+      x += width + 1.4;
+    }
+    s->scene.boxes.push_back({"aircraft_fuselage", Eigen::Vector3d(56.0, -13.0, 0.0),
+                              Eigen::Vector3d(64.0, -11.0, 2.0)});
+    s->trajectory = straight({0, 0, 10.0}, {70, 0, 10.0}, 5.0, 15 * kDeg, rate);
+  } else if (name == "posts-high") {
+    // The paper's posts flown through at 8 m: a centred environment of 10 m never
+    // reaches the lower 3 m of them.
+    s->description = "two posts 7 m apart flown through at 8 m altitude";
+    s->config = "config/paper-flight3.yaml";
+    s->scene.cylinders.push_back({"post_a", Eigen::Vector2d(40.0, -3.5), 0.25, 0.0, 5.0});
+    s->scene.cylinders.push_back({"post_b", Eigen::Vector2d(40.0, 3.5), 0.25, 0.0, 5.0});
+    s->trajectory = straight({0, 0, 8.0}, {38, 0, 8.0}, 4.0, 15 * kDeg, rate);
   } else if (name == "out-and-back") {
     s->description = "a 200 m route flown out and back: zones are discarded and allocated again";
     s->config = "config/paper-flight3.yaml";
@@ -113,7 +156,8 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     }
   } else {
     *error = "unknown scenario '" + name +
-             "' (bushes, treeline, posts-through, posts-around, out-and-back)";
+             "' (bushes, treeline, posts-through, posts-around, out-and-back, treeline-dense, "
+             "hedge, posts-high)";
     return false;
   }
   return true;

@@ -3,6 +3,7 @@
 // posts 7 m apart, flown through and flown around nose-to-centre.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,7 @@ struct Scenario {
 struct ScenarioOptions {
   int width = 640;  // image width; height is 3/4 of it (the paper's 640x480)
   double frame_rate_hz = 10.0;
+  std::uint64_t seed = 1;  // varies the hard scenes' sizes and gaps (and the rendering noise)
 };
 
 // The paper's stereo camera: 30 cm baseline, about 51 x 40 degrees, 1/4 pixel

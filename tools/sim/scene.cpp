@@ -104,7 +104,7 @@ Eigen::Isometry3d look_pose(const Eigen::Vector3d& position, double yaw, double 
 }
 
 double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
-                  double u, double v, Eigen::Vector3d* hit_point) {
+                  double u, double v, Eigen::Vector3d* hit_point, int* object) {
   const Eigen::Vector3d o = pose.translation();
   const Eigen::Vector3d w = pose.linear() * Eigen::Vector3d((u - camera.cx) / camera.fx,
                                                             (v - camera.cy) / camera.fy, 1.0);
@@ -113,15 +113,31 @@ double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Is
     const double t = (scene.ground_z - o.z()) / w.z();
     if (t > 0.0) best = t;
   }
-  for (const Box& b : scene.boxes) best = std::min(best, hit_box(b, o, w));
-  for (const Cylinder& c : scene.cylinders) best = std::min(best, hit_cylinder(c, o, w));
+  int hit_object = -1;  // the ground
+  const int cylinders = static_cast<int>(scene.cylinders.size());
+  for (int k = 0; k < cylinders; ++k) {
+    const double t = hit_cylinder(scene.cylinders[static_cast<std::size_t>(k)], o, w);
+    if (t < best) {
+      best = t;
+      hit_object = k;
+    }
+  }
+  for (std::size_t k = 0; k < scene.boxes.size(); ++k) {
+    const double t = hit_box(scene.boxes[k], o, w);
+    if (t < best) {
+      best = t;
+      hit_object = cylinders + static_cast<int>(k);
+    }
+  }
+  if (object != nullptr) *object = hit_object;
   if (!std::isfinite(best)) return -1.0;
   *hit_point = o + best * w;
   return best;  // δ is the z-depth because w has unit optical-axis component
 }
 
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
-            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left) {
+            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
+            std::vector<std::int64_t>* object_hits) {
   const int w = camera.width;
   const int h = camera.height;
   // Failed matches come in blocks: choose them first.
@@ -136,7 +152,8 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
     for (int u = 0; u < w; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * w + u;
       Eigen::Vector3d hit;
-      const double d = cast_pixel(scene, camera, pose, u, v, &hit);
+      int object = -1;
+      const double d = cast_pixel(scene, camera, pose, u, v, &hit, &object);
       const double noise = rng.gaussian();
       const double drop = rng.uniform();
       const double grain = rng.uniform();
@@ -155,12 +172,18 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
         depth[i] = 0;
       } else {
         depth[i] = static_cast<std::uint16_t>(value);
+        const double horizontal = (hit - pose.translation()).head<2>().norm();
+        if (object_hits != nullptr && object >= 0 && d <= kSeenRangeM &&
+            horizontal <= kSeenHorizontalM) {
+          ++(*object_hits)[static_cast<std::size_t>(object)];
+        }
       }
     }
   }
 }
 
-bool write_objects_yaml(const std::string& path, const Scene& scene, std::string* error) {
+bool write_objects_yaml(const std::string& path, const Scene& scene,
+                        const std::vector<std::int64_t>& hits, std::string* error) {
   std::ofstream out(path);
   if (!out) {
     *error = path + ": cannot create";
@@ -172,14 +195,20 @@ bool write_objects_yaml(const std::string& path, const Scene& scene, std::string
   for (const Cylinder& c : scene.cylinders) {
     std::snprintf(
         line, sizeof(line),
-        "  - {name: %s, type: cylinder, center: [%.3f, %.3f], radius: %.3f, z: [%.3f, %.3f]}\n",
-        c.name.c_str(), c.center.x(), c.center.y(), c.radius, c.z_min, c.z_max);
+        "  - {name: %s, type: cylinder, center: [%.3f, %.3f], radius: %.3f, z: [%.3f, %.3f], "
+        "pixel_hits: %lld}\n",
+        c.name.c_str(), c.center.x(), c.center.y(), c.radius, c.z_min, c.z_max,
+        static_cast<long long>(hits[&c - scene.cylinders.data()]));
     out << line;
   }
   for (const Box& b : scene.boxes) {
-    std::snprintf(line, sizeof(line),
-                  "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f]}\n",
-                  b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z());
+    std::snprintf(
+        line, sizeof(line),
+        "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f], "
+        "pixel_hits: %lld}\n",
+        b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z(),
+        static_cast<long long>(
+            hits[scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data())]));
     out << line;
   }
   if (scene.boxes.empty() && scene.cylinders.empty()) out << "  []\n";
@@ -223,9 +252,10 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
   Rng rng(options.seed);
   char name[64];
   char line[256];
+  std::vector<std::int64_t> hits(scene.cylinders.size() + scene.boxes.size(), 0);
   for (std::size_t f = 0; f < trajectory.size(); ++f) {
     const TimedPose& p = trajectory[f];
-    render(scene, camera, p.world_T_camera, options, rng, depth.data(), left.data());
+    render(scene, camera, p.world_T_camera, options, rng, depth.data(), left.data(), &hits);
     std::snprintf(name, sizeof(name), "%06zu.png", f);
     if (!hal::write_png_gray16((fs::path(dir) / "depth" / name).string(), camera.width,
                                camera.height, depth.data(), error) ||
@@ -247,7 +277,7 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
     *error = dir + ": cannot write the frame lists";
     return false;
   }
-  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene, error);
+  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene, hits, error);
 }
 
 }  // namespace zonemap::sim

@@ -68,12 +68,21 @@ Eigen::Isometry3d look_pose(const Eigen::Vector3d& position, double yaw, double 
 // a negative value when the ray hits nothing (sky). *surface_id tells what was hit
 // (0 ground, 1.. objects) for texturing.
 double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
-                  double u, double v, Eigen::Vector3d* hit_point);
+                  double u, double v, Eigen::Vector3d* hit_point, int* object = nullptr);
+
+// objects.yaml's pixel_hits: valid depth pixels on the object within these ranges
+// (the paper configurations' d_max and the sensor environment's half width), the
+// evaluation's test of whether the camera saw the object well enough to map it.
+inline constexpr double kSeenRangeM = 50.0;
+inline constexpr double kSeenHorizontalM = 40.0;
 
 // Renders one frame: depth in units of 1/camera.depth_scale metres (0 = none) and
 // the left intensity image.
+// object_hits (one counter per cylinder, then per box) counts the valid depth pixels
+// on each object within kSeenRangeM / kSeenHorizontalM.
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
-            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left);
+            const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
+            std::vector<std::int64_t>* object_hits = nullptr);
 
 // Writes a whole sequence directory (camera.yaml, depth.txt, depth/, left.txt,
 // left/, groundtruth.txt, objects.yaml).
@@ -81,6 +90,8 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
                     const std::vector<TimedPose>& trajectory, const RenderOptions& options,
                     std::string* error);
 
-bool write_objects_yaml(const std::string& path, const Scene& scene, std::string* error);
+// hits: pixel_hits per object (cylinders, then boxes), from render().
+bool write_objects_yaml(const std::string& path, const Scene& scene,
+                        const std::vector<std::int64_t>& hits, std::string* error);
 
 }  // namespace zonemap::sim

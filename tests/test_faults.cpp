@@ -11,6 +11,7 @@
 
 #include "hal/can/obstacle_can_sink.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "hal/runtime/pipeline.hpp"
 #include "test_support.hpp"
@@ -57,11 +58,11 @@ class ScriptedIns final : public hal::PoseSource {
 class ScriptedCamera final : public hal::FrameSource {
  public:
   ScriptedCamera(const hal::ReplaySequence& sequence,
-                 std::function<hal::FrameRead(std::size_t, hal::ReplayFrame*, std::string*)> fault)
+                 std::function<hal::FrameRead(std::size_t, hal::CameraFrame*, std::string*)> fault)
       : inner_(sequence, 0.0), fault_(std::move(fault)), camera_(sequence.camera()) {}
   const CameraModel& camera() const override { return camera_; }
-  hal::ReplayFrame make_frame() const override { return inner_.make_frame(); }
-  hal::FrameRead next(hal::ReplayFrame* frame, int wait_ms, std::string* why) override {
+  hal::CameraFrame make_frame() const override { return inner_.make_frame(); }
+  hal::FrameRead next(hal::CameraFrame* frame, int wait_ms, std::string* why) override {
     const std::size_t index = inner_.next_index();
     const hal::FrameRead r = inner_.next(frame, wait_ms, why);
     if (r != hal::FrameRead::kFrame) return r;
@@ -70,7 +71,7 @@ class ScriptedCamera final : public hal::FrameSource {
 
  private:
   hal::ReplayFrameSource inner_;
-  std::function<hal::FrameRead(std::size_t, hal::ReplayFrame*, std::string*)> fault_;
+  std::function<hal::FrameRead(std::size_t, hal::CameraFrame*, std::string*)> fault_;
   CameraModel camera_;
 };
 
@@ -182,7 +183,7 @@ TEST(Faults, PoseJumpAndTimeGoingBackwardsAreRefusedAndTheMapIsUnchanged) {
 
 TEST(Faults, CameraStallsOneSecondThenBurstsAndCorruptFramesAreCounted) {
   Flight f(48);
-  ScriptedCamera camera(f.sequence, [](std::size_t index, hal::ReplayFrame*, std::string* why) {
+  ScriptedCamera camera(f.sequence, [](std::size_t index, hal::CameraFrame*, std::string* why) {
     if (index == 12) std::this_thread::sleep_for(std::chrono::seconds(1));  // the stall
     if (index % 9 == 4) {
       why->assign("injected: corrupt frame");

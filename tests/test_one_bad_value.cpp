@@ -197,8 +197,9 @@ void PrintTo(const BadValue& bad, std::ostream* out) {
 
 class OneBadValue : public ::testing::TestWithParam<BadValue> {};
 
-// Frame 20 of 40 (line 21 of depth.txt / groundtruth.txt: line 0 is a comment).
-constexpr int kLine = 21;
+// Frame 12 of 24 (line 13 of depth.txt / groundtruth.txt: line 0 is a comment).
+constexpr int kLine = 13;
+constexpr int kFrames = 24;
 
 const BadValue kBadValues[] = {
     {"FrameStampFarInTheFuture",
@@ -278,12 +279,12 @@ const BadValue kBadValues[] = {
      },
      1, "poses_jump"},
     {"CorruptPng",
-     [](const std::string& s) { write_text(s + "/depth/000020.png", "\x89PNG\r\n\x1a\n garbage"); },
+     [](const std::string& s) { write_text(s + "/depth/000012.png", "\x89PNG\r\n\x1a\n garbage"); },
      1, "frames_rejected_bad_image"},
     {"TruncatedPng",
      [](const std::string& s) {
-       const std::string png = read_text(s + "/depth/000020.png");
-       write_text(s + "/depth/000020.png", png.substr(0, png.size() / 2));
+       const std::string png = read_text(s + "/depth/000012.png");
+       write_text(s + "/depth/000012.png", png.substr(0, png.size() / 2));
      },
      1, "frames_rejected_bad_image"},
     {"WrongSizeFrame",
@@ -291,7 +292,7 @@ const BadValue kBadValues[] = {
        // A valid 16-bit PNG at half the size.
        std::vector<std::uint16_t> depth(320 * 240, 20000);
        std::string error;
-       ASSERT_TRUE(hal::write_png_gray16(s + "/depth/000020.png", 320, 240, depth.data(), &error));
+       ASSERT_TRUE(hal::write_png_gray16(s + "/depth/000012.png", 320, 240, depth.data(), &error));
      },
      1, "frames_rejected_bad_image"},
 };
@@ -307,14 +308,15 @@ TEST_P(OneBadValue, CostsAtMostTheFramesItTouchesAndTheRestMapsAsTheCleanRun) {
   const BadValue& bad = GetParam();
   testing::TempDir dir;
   const std::string clean_seq = dir / "clean", bad_seq = dir / "bad";
-  const std::string config = testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, 40);
+  const std::string config =
+      testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, kFrames);
   ASSERT_FALSE(config.empty());
   std::filesystem::copy(clean_seq, bad_seq, std::filesystem::copy_options::recursive);
   bad.inject(bad_seq);
   const RunResult clean = replay(clean_seq, config);
   const RunResult got = replay(bad_seq, config);
-  ASSERT_EQ(clean.stats.frames_mapped, 40);
-  EXPECT_GE(got.stats.frames_mapped, 40 - bad.frames_lost) << got.json;
+  ASSERT_EQ(clean.stats.frames_mapped, kFrames);
+  EXPECT_GE(got.stats.frames_mapped, kFrames - bad.frames_lost) << got.json;
   EXPECT_EQ(got.stats.frames_in,
             got.stats.frames_mapped + got.stats.frames_rejected + got.stats.frames_skipped_no_pose);
   EXPECT_EQ(counter(got.json, bad.counted), 1) << bad.counted << "\n" << got.json;

@@ -4,6 +4,7 @@
 
 #include "hal/can/obstacle_can_sink.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

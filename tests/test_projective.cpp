@@ -271,7 +271,7 @@ TEST(Projective, AgreesWithReferenceOnRealFrames) {
       hal::load_map_config(testing::source_path("config/indoor-kinect.yaml"), &config, &error));
   hal::ReplaySequence sequence;
   ASSERT_TRUE(sequence.open(dir, "", config, &error)) << error;
-  hal::ReplayFrame frame = sequence.make_frame();
+  hal::CameraFrame frame = sequence.make_frame();
   Agreement total;
   for (std::size_t i = 0; i < sequence.frame_count(); i += 15) {
     ASSERT_TRUE(sequence.read(i, &frame, &error)) << error;

@@ -47,7 +47,7 @@ TEST(RedKitchen, RealFramesMapWithoutRejectsAndOccupiedCellsLieOnMeasurements) {
   Mapper& mapper = run.mapper();
   const CameraModel& camera = run.sequence().camera();
   std::unordered_set<std::uint64_t> measured;
-  hal::ReplayFrame frame = run.sequence().make_frame();
+  hal::CameraFrame frame = run.sequence().make_frame();
   for (std::size_t i = 0; i < run.sequence().frame_count(); ++i) {
     ASSERT_TRUE(run.sequence().read(i, &frame, &error)) << error;
     Eigen::Isometry3d pose;

@@ -291,7 +291,7 @@ TEST(ReplayTumLayout, MapsLikeTheSameFlightInMillimetres) {
   const CameraModel camera = source.camera();
   std::ofstream list(tum + "/depth.txt");
   list << "# depth maps\n# file: 'rgbd_dataset_zonemap_posts.bag'\n# timestamp filename\n";
-  hal::ReplayFrame frame = source.make_frame();
+  hal::CameraFrame frame = source.make_frame();
   for (std::size_t i = 0; i < source.frame_count(); ++i) {
     ASSERT_TRUE(source.read(i, &frame, &error)) << error;
     // 16-bit PNG at 5000 per metre ends at 13.1 m: drop farther depths from both copies.

@@ -277,8 +277,8 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   return true;
 }
 
-ReplayFrame ReplaySequence::make_frame() const {
-  ReplayFrame frame;
+CameraFrame ReplaySequence::make_frame() const {
+  CameraFrame frame;
   const auto pixels =
       static_cast<std::size_t>(camera_.width) * static_cast<std::size_t>(camera_.height);
   frame.depth.assign(pixels, 0);
@@ -286,7 +286,7 @@ ReplayFrame ReplaySequence::make_frame() const {
   return frame;
 }
 
-bool ReplaySequence::read(std::size_t i, ReplayFrame* frame, std::string* why) const {
+bool ReplaySequence::read(std::size_t i, CameraFrame* frame, std::string* why) const {
   const FrameListEntry& entry = frames_[i];
   frame->time_s = entry.time_s;
   frame->has_left = false;

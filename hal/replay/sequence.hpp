@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "hal/frames/frame_source.hpp"
 #include "zonemap/camera.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/ins_gate.hpp"
@@ -66,14 +67,6 @@ bool parse_trajectory(std::istream& in, const std::string& name, PoseTrack* trac
                       std::vector<std::string>* warnings, std::string* error,
                       const ListFilterConfig& filter = {}, PoseListCounts* counts = nullptr);
 
-struct ReplayFrame {
-  double time_s = 0.0;
-  std::vector<std::uint16_t> depth;  // reserved for width * height at open
-  std::vector<std::uint8_t> left;
-  bool has_left = false;
-  std::string left_problem;  // set when a left image exists but could not be used
-};
-
 class ReplaySequence {
  public:
   // camera_path: empty to use DIR/camera.yaml. depth_scale_override > 0 replaces
@@ -92,8 +85,8 @@ class ReplaySequence {
   // Decodes frame i into `frame` (whose buffers must come from make_frame()).
   // Returns false with the reason (file and problem) for a frame that must be
   // rejected: unreadable, corrupt, wrong size or bit depth, time out of order.
-  bool read(std::size_t i, ReplayFrame* frame, std::string* why) const;
-  ReplayFrame make_frame() const;
+  bool read(std::size_t i, CameraFrame* frame, std::string* why) const;
+  CameraFrame make_frame() const;
 
  private:
   CameraModel camera_;

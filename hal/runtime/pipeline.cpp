@@ -7,6 +7,7 @@
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/doorbell.hpp"
 #include "hal/os/realtime.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 #include "zonemap/extraction_schedule.hpp"
 #include "zonemap/pose_buffer.hpp"
 #include "zonemap/spsc_queue.hpp"
@@ -120,7 +121,7 @@ struct Pipeline::Impl {
     std::size_t frame_index = 0;
     Clock::time_point acquired;
   };
-  std::array<hal::ReplayFrame, kFrameSlots> frames;
+  std::array<hal::CameraFrame, kFrameSlots> frames;
   std::array<SlotInfo, kFrameSlots> frame_info{};
   // Each thread's bell: rung when there may be work (or room) for it.
   os::Doorbell acquisition_bell, mapping_bell, extraction_bell, output_bell;
@@ -256,7 +257,7 @@ struct Pipeline::Impl {
           slot = kEnd;  // every slot waits for the mapper: this frame will be dropped
         }
       }
-      hal::ReplayFrame* target = slot == kEnd ? &drop_frame : &frames[slot];
+      hal::CameraFrame* target = slot == kEnd ? &drop_frame : &frames[slot];
       const hal::FrameRead read = source.next(target, 100, &why);
       if (read == hal::FrameRead::kEnd) {
         spare = slot;
@@ -307,7 +308,7 @@ struct Pipeline::Impl {
 
   // Newest wins with every slot waiting: the next frame is read into this spare
   // buffer and dropped (a live source must be drained, not left to queue up).
-  hal::ReplayFrame drop_frame;
+  hal::CameraFrame drop_frame;
 
   struct BufferSink final : hal::PoseSink {
     PoseBuffer<512>* buffer;
@@ -577,7 +578,7 @@ struct Pipeline::Impl {
       if (!options.lossless) apply_reintegration(0, nullptr);
       const SlotInfo info = frame_info[slot];
       s.acquire_to_map_start.record(ms_between(info.acquired, start));
-      const hal::ReplayFrame& frame = frames[slot];
+      const hal::CameraFrame& frame = frames[slot];
       Eigen::Isometry3d pose;
       if (!pose_for(frame.time_s, &pose, &s)) {
         ++s.frames_skipped_no_pose;

@@ -70,8 +70,8 @@ V4l2FrameSource::~V4l2FrameSource() {
   close_device();
 }
 
-hal::ReplayFrame V4l2FrameSource::make_frame() const {
-  hal::ReplayFrame f;
+hal::CameraFrame V4l2FrameSource::make_frame() const {
+  hal::CameraFrame f;
   f.depth.assign(static_cast<std::size_t>(camera_.width) * static_cast<std::size_t>(camera_.height),
                  0);
   return f;
@@ -170,7 +170,7 @@ bool V4l2FrameSource::reopen_due(double now_s) {
   return false;
 }
 
-hal::FrameRead V4l2FrameSource::next(hal::ReplayFrame* frame, int wait_ms, std::string* why) {
+hal::FrameRead V4l2FrameSource::next(hal::CameraFrame* frame, int wait_ms, std::string* why) {
   if (fd_ < 0 && !(ever_opened_ && reopen_due(monotonic_s()))) {
     if (wait_ms > 0) ::poll(nullptr, 0, std::min(wait_ms, 50));  // no device: do not spin
     return hal::FrameRead::kNone;

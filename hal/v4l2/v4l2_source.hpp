@@ -48,8 +48,8 @@ class V4l2FrameSource final : public hal::FrameSource {
   // Opens and starts streaming; false with the reason (device, ioctl, what it offers).
   bool open(std::string* error);
   const CameraModel& camera() const override { return camera_; }
-  hal::ReplayFrame make_frame() const override;
-  hal::FrameRead next(hal::ReplayFrame* frame, int wait_ms, std::string* why) override;
+  hal::CameraFrame make_frame() const override;
+  hal::FrameRead next(hal::CameraFrame* frame, int wait_ms, std::string* why) override;
   std::int64_t frames_lost() const override { return counters_.lost; }
   const V4l2Counters& counters() const { return counters_; }
 

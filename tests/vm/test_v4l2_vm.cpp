@@ -43,7 +43,7 @@ TEST(V4l2Vm, StreamsY16FramesWithDriverTimestampsAndSequence) {
   v4l2::V4l2FrameSource source(device_config("/dev/video0", 4), vga());
   std::string error;
   ASSERT_TRUE(source.open(&error)) << error;
-  hal::ReplayFrame frame = source.make_frame();
+  hal::CameraFrame frame = source.make_frame();
   double last_time = -1.0;
   int frames = 0;
   std::string why;
@@ -70,7 +70,7 @@ TEST(V4l2Vm, AStalledConsumerShowsLostFramesFromSequenceGaps) {
   v4l2::V4l2FrameSource source(device_config("/dev/video0", 2), vga());
   std::string error;
   ASSERT_TRUE(source.open(&error)) << error;
-  hal::ReplayFrame frame = source.make_frame();
+  hal::CameraFrame frame = source.make_frame();
   std::string why;
   while (source.next(&frame, 1000, &why) != hal::FrameRead::kFrame) {
   }

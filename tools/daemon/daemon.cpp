@@ -12,6 +12,7 @@
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/output/run_outputs.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "hal/v4l2/v4l2_source.hpp"
 

@@ -126,7 +126,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
 }
 
 void ReplayRun::run_frames(std::size_t first, std::size_t last) {
-  hal::ReplayFrame frame = sequence_.make_frame();
+  hal::CameraFrame frame = sequence_.make_frame();
   std::string why;
   const std::size_t n = std::min(last, sequence_.frame_count());
   const bool show_progress = options_.progress && isatty(STDERR_FILENO);

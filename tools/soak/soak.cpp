@@ -4,6 +4,7 @@
 #include <sstream>
 #include <thread>
 
+#include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "tools/sim/scenarios.hpp"
 
@@ -30,13 +31,13 @@ class LoopCamera final : public hal::FrameSource {
   LoopCamera(const Loop& loop, const SoakOptions& options, Clock::time_point start)
       : loop_(loop), options_(options), start_(start) {}
   const CameraModel& camera() const override { return loop_.camera; }
-  hal::ReplayFrame make_frame() const override {
-    hal::ReplayFrame f;
+  hal::CameraFrame make_frame() const override {
+    hal::CameraFrame f;
     f.depth.assign(loop_.depth[0].size(), 0);
     f.left.assign(loop_.left[0].size(), 0);
     return f;
   }
-  hal::FrameRead next(hal::ReplayFrame* frame, int, std::string*) override {
+  hal::FrameRead next(hal::CameraFrame* frame, int, std::string*) override {
     if (next_ >= options_.frames) return hal::FrameRead::kEnd;
     const double t = frame_time(next_);
     if (options_.rate_hz > 0.0) {  // a camera: frame i at start + i / rate

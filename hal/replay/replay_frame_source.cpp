@@ -1,11 +1,11 @@
 #include <chrono>
 #include <thread>
 
-#include "hal/frames/frame_source.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 
 namespace zonemap::hal {
 
-FrameRead ReplayFrameSource::next(ReplayFrame* frame, int /*wait_ms*/, std::string* why) {
+FrameRead ReplayFrameSource::next(CameraFrame* frame, int /*wait_ms*/, std::string* why) {
   using Clock = std::chrono::steady_clock;
   if (next_ >= sequence_.frame_count()) return FrameRead::kEnd;
   const double now = std::chrono::duration<double>(Clock::now().time_since_epoch()).count();

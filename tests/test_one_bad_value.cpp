@@ -10,6 +10,9 @@
 #include <functional>
 #include <sstream>
 
+#include <lcm/eventlog.h>
+
+#include "hal/lcm/lcm_codec.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/png_io.hpp"
 #include "test_support.hpp"
@@ -339,6 +342,162 @@ std::string bad_value_name(const ::testing::TestParamInfo<BadValue>& param) {
   return param.param.name;
 }
 INSTANTIATE_TEST_SUITE_P(Replay, OneBadValue, ::testing::ValuesIn(kBadValues), bad_value_name);
+
+// ---- one bad INS message in a flight replayed from its INS log (ins.lcmlog)
+
+// One INS log event: the bytes of an ins_state_t (a test may damage them) at `utime`.
+struct InsEvent {
+  std::int64_t utime = 0;
+  std::vector<std::uint8_t> bytes;
+};
+
+// The flight's body poses (camera on the default mount) as an INS logs them, at
+// four times the frame rate (interpolated), so that one refused solution costs no
+// frame: the mapper interpolates across it.
+std::vector<InsEvent> ins_events(const hal::ReplaySequence& sequence) {
+  const Eigen::Isometry3d camera_T_body = sequence.camera().body_T_camera.inverse();
+  const auto& samples = sequence.poses().samples();
+  std::vector<InsEvent> events;
+  const double t0 = samples.front().time_s, t1 = samples.back().time_s;
+  const double step = (samples[1].time_s - samples[0].time_s) / 4.0;
+  for (double t = t0; t <= t1 + 1e-9; t += step) {
+    Eigen::Isometry3d world_T_camera;
+    if (sequence.poses().lookup(t, &world_T_camera) == PoseLookup::kNoPose) continue;
+    const Eigen::Isometry3d world_T_body = world_T_camera * camera_T_body;
+    InsSolution s;
+    s.time_s = t;
+    s.position_m = world_T_body.translation();
+    s.attitude = Eigen::Quaterniond(world_T_body.linear()).normalized();
+    s.attitude_valid = s.position_valid = true;
+    s.position_sigma_m = 0.1;
+    InsEvent e;
+    e.utime = static_cast<std::int64_t>(std::llround(t * 1e6));
+    const auto m = lcm_link::to_message(s, true, e.utime);
+    e.bytes.resize(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(e.bytes.data(), 0, static_cast<int>(e.bytes.size()));
+    events.push_back(std::move(e));
+  }
+  return events;
+}
+
+void write_lcm_log(const std::vector<InsEvent>& events, const std::string& path,
+                   std::size_t garbage_after = SIZE_MAX) {
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    lcm_eventlog_event_t e{};
+    e.timestamp = events[i].utime;
+    e.channellen = 9;
+    e.channel = const_cast<char*>("INS_STATE");
+    e.datalen = static_cast<std::int32_t>(events[i].bytes.size());
+    e.data = const_cast<std::uint8_t*>(events[i].bytes.data());
+    ASSERT_EQ(lcm_eventlog_write_event(log, &e), 0);
+    if (i == garbage_after) {
+      const char junk[] = "\x12\x34 a damaged stretch of the log \xed\xa8";
+      std::fwrite(junk, 1, sizeof junk, log->f);
+    }
+  }
+  lcm_eventlog_destroy(log);
+}
+
+// Re-encodes event i with its solution changed by `change`.
+void change_solution(std::vector<InsEvent>* events, std::size_t i,
+                     const std::function<void(InsSolution*, std::int64_t*)>& change) {
+  zonemap_lcm::ins_state_t m;
+  ASSERT_GT(m.decode((*events)[i].bytes.data(), 0, static_cast<int>((*events)[i].bytes.size())), 0);
+  InsSolution s;
+  s.time_s = static_cast<double>(m.utime) * 1e-6;
+  s.position_m = Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
+  s.attitude =
+      Eigen::Quaterniond(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
+  s.attitude_valid = s.position_valid = true;
+  s.position_sigma_m = m.position_sigma_m;
+  std::int64_t utime = m.utime;
+  change(&s, &utime);
+  const auto changed = lcm_link::to_message(s, true, utime);
+  (*events)[i].bytes.assign(static_cast<std::size_t>(changed.getEncodedSize()), 0);
+  changed.encode((*events)[i].bytes.data(), 0, static_cast<int>((*events)[i].bytes.size()));
+}
+
+struct BadInsMessage {
+  const char* name;
+  std::function<void(std::vector<InsEvent>*, std::size_t* garbage_after)> inject;
+};
+void PrintTo(const BadInsMessage& bad, std::ostream* out) {
+  *out << bad.name;
+}
+
+constexpr std::size_t kBadEvent = 45;  // of ~93 (24 frames, four solutions a frame)
+
+const BadInsMessage kBadInsMessages[] = {
+    {"TimeFarInTheFuture",
+     [](std::vector<InsEvent>* e, std::size_t*) {
+       change_solution(e, kBadEvent,
+                       [](InsSolution*, std::int64_t* utime) { *utime = 999999999000000; });
+     }},
+    {"TimeFromThePast",
+     [](std::vector<InsEvent>* e, std::size_t*) {
+       change_solution(e, kBadEvent, [](InsSolution*, std::int64_t* utime) { *utime = 100000; });
+     }},
+    {"PositionNan",
+     [](std::vector<InsEvent>* e, std::size_t*) {
+       change_solution(e, kBadEvent,
+                       [](InsSolution* s, std::int64_t*) { s->position_m.y() = NAN; });
+     }},
+    {"OneKilometreAway",
+     [](std::vector<InsEvent>* e, std::size_t*) {
+       change_solution(e, kBadEvent,
+                       [](InsSolution* s, std::int64_t*) { s->position_m.x() += 1000.0; });
+     }},
+    {"WrongFingerprint",
+     [](std::vector<InsEvent>* e, std::size_t*) { (*e)[kBadEvent].bytes[0] ^= 0x5A; }},
+    {"TruncatedMessage",
+     [](std::vector<InsEvent>* e, std::size_t*) { (*e)[kBadEvent].bytes.resize(20); }},
+    {"DamagedLogBytes", [](std::vector<InsEvent>*, std::size_t* garbage) { *garbage = kBadEvent; }},
+};
+
+class OneBadInsMessage : public ::testing::TestWithParam<BadInsMessage> {};
+
+TEST_P(OneBadInsMessage, IsRefusedAloneAndTheFlightMapsAsTheCleanOne) {
+  testing::TempDir dir;
+  const std::string clean_seq = dir / "clean", bad_seq = dir / "bad";
+  const std::string config =
+      testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, kFrames);
+  ASSERT_FALSE(config.empty());
+  hal::ReplaySequence truth;
+  std::string error;
+  MapConfig interpolate_between_frames;
+  interpolate_between_frames.pose_max_gap_s = 1.0;
+  ASSERT_TRUE(truth.open(clean_seq, "", interpolate_between_frames, &error)) << error;
+  std::vector<InsEvent> events = ins_events(truth);
+  ASSERT_GT(events.size(), kBadEvent + 10);
+  // Both flights take their poses from the INS log, not from groundtruth.txt.
+  std::filesystem::remove(clean_seq + "/groundtruth.txt");
+  std::filesystem::copy(clean_seq, bad_seq, std::filesystem::copy_options::recursive);
+  write_lcm_log(events, clean_seq + "/ins.lcmlog");
+  std::size_t garbage_after = SIZE_MAX;
+  GetParam().inject(&events, &garbage_after);
+  write_lcm_log(events, bad_seq + "/ins.lcmlog", garbage_after);
+  const RunResult clean = replay(clean_seq, config);
+  const RunResult got = replay(bad_seq, config);
+  ASSERT_EQ(clean.stats.frames_mapped, kFrames) << clean.json;
+  EXPECT_EQ(got.stats.frames_mapped, kFrames) << "one INS message cost a frame\n" << got.json;
+  EXPECT_GE(got.stats.poses_rejected, 1) << "the bad message was not counted\n" << got.json;
+  EXPECT_LE(got.stats.poses_rejected, 1) << "more than the bad message was refused\n" << got.json;
+  EXPECT_EQ(got.stats.zones_allocated, clean.stats.zones_allocated);
+  ASSERT_EQ(got.boxes.size(), clean.boxes.size());
+  const double cell = clean.stats.cell_size_m;
+  for (std::size_t i = 0; i < got.boxes.size(); ++i) {
+    EXPECT_LE((got.boxes[i].min - clean.boxes[i].min).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+    EXPECT_LE((got.boxes[i].max - clean.boxes[i].max).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+  }
+}
+
+std::string bad_ins_name(const ::testing::TestParamInfo<BadInsMessage>& param) {
+  return param.param.name;
+}
+INSTANTIATE_TEST_SUITE_P(InsLog, OneBadInsMessage, ::testing::ValuesIn(kBadInsMessages),
+                         bad_ins_name);
 
 }  // namespace
 }  // namespace zonemap

@@ -19,16 +19,8 @@ namespace {
 
 using testing::TempDir;
 
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::read_text;
+using testing::write_text;
 
 TEST(BadPng, CorruptTruncatedWrongSizeAndWrongDepthAreRefusedWithTheFileName) {
   TempDir dir;

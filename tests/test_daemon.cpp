@@ -32,10 +32,7 @@ using namespace zonemap;
 namespace {
 
 std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return zonemap::testing::read_text(path);
 }
 
 // The sequence's camera poses as an INS would log them: the body's pose, the

@@ -132,15 +132,8 @@ TEST(PoseBuffer, AfterAClockStepTheNewestClocksSamplesAreKept) {
 
 // ---- one bad value in a replayed flight
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+using testing::read_text;
+using testing::write_text;
 
 // Replaces line `n` (0-based, comments included) of a text file.
 void edit_line(const std::string& path, int n,

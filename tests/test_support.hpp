@@ -30,6 +30,17 @@ class TempDir {
   std::string path_;
 };
 
+// A whole text file, or "" when it cannot be read.
+inline std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+inline void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
 inline std::string source_path(const std::string& relative) {
   return std::string(ZONEMAP_SOURCE_DIR) + "/" + relative;
 }

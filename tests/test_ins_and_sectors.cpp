@@ -7,6 +7,7 @@
 #include <random>
 
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "test_support.hpp"
 #include "zonemap/geodetic.hpp"
 #include "zonemap/ins_gate.hpp"
 #include "zonemap/obstacle_distance.hpp"
@@ -36,14 +37,7 @@ TEST(Geodetic, KnownPointsAndRoundTrip) {
 
 namespace {
 
-InsSolution valid_at(double t, Eigen::Vector3d p) {
-  InsSolution s;
-  s.time_s = t;
-  s.position_m = p;
-  s.attitude_valid = s.position_valid = true;
-  s.position_sigma_m = 0.3;
-  return s;
-}
+using zonemap::testing::valid_at;
 
 }  // namespace
 

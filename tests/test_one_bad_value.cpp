@@ -83,14 +83,7 @@ TEST(TimeWatermark, AListTakesAForwardStepWholeAndNeverAdoptsAClockGoingBack) {
   for (int i = 3; i < 7; ++i) EXPECT_EQ(v[i], TimeVerdict::kPast) << i;
 }
 
-InsSolution valid_at(double t, const Eigen::Vector3d& p) {
-  InsSolution s;
-  s.time_s = t;
-  s.position_m = p;
-  s.attitude_valid = s.position_valid = true;
-  s.position_sigma_m = 0.1;
-  return s;
-}
+using testing::valid_at;
 
 TEST(InsGate, OneSolutionWithAGarbageTimeCostsOnlyItself) {
   for (const double bad : {99999.0, -1.0, 0.5, double(NAN)}) {

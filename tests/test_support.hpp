@@ -8,6 +8,7 @@
 #include <string>
 
 #include "tools/sim/scenarios.hpp"
+#include "zonemap/ins_gate.hpp"
 
 namespace zonemap::testing {
 
@@ -39,6 +40,16 @@ inline std::string read_text(const std::string& path) {
 }
 inline void write_text(const std::string& path, const std::string& text) {
   std::ofstream(path) << text;
+}
+
+// A plausible INS solution at time t and position p (valid flags, 0.3 m sigma).
+inline InsSolution valid_at(double t, const Eigen::Vector3d& p) {
+  InsSolution s;
+  s.time_s = t;
+  s.position_m = p;
+  s.attitude_valid = s.position_valid = true;
+  s.position_sigma_m = 0.3;
+  return s;
 }
 
 inline std::string source_path(const std::string& relative) {

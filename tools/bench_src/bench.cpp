@@ -433,6 +433,22 @@ BENCHMARK(BM_ZoneSnapshotCapture)->Unit(benchmark::kMillisecond);
 }  // namespace
 
 int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
+      std::fputs(
+          "usage: zonemap-bench [--frames N] [--full-extent] [--projective CELL_M [--repeat N]]\n"
+          "       zonemap-bench --micro [Google Benchmark flags]\n"
+          "  (no option)          the table: projective and reference paths against OctoMap when\n"
+          "                       built with it, per cell size, agreement, scaling, replays\n"
+          "  --frames N           frames per case (default 12)\n"
+          "  --full-extent        0.25 m over the whole 80 x 80 x 40 m environment too\n"
+          "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind)\n"
+          "  --repeat N           passes over the same frames with --projective\n"
+          "  --micro              the per-stage micro benchmarks\n",
+          stdout);
+      return 0;
+    }
+  }
   if (argc > 1 && std::strcmp(argv[1], "--micro") == 0) {
     argv[1] = argv[0];
     int n = argc - 1;

@@ -1,6 +1,5 @@
-// zonemap-replay SEQUENCE --config FILE --out DIR [--camera FILE] [--quiet]
-// Maps a recorded or generated flight and writes DIR/stats.json, DIR/height.png
-// and DIR/occupied.ply.
+// zonemap-replay: maps a recorded or generated flight and writes DIR/stats.json,
+// DIR/boxes.csv, DIR/height.png and DIR/occupied.ply (usage below).
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -8,7 +7,30 @@
 #include "hal/os/realtime.hpp"
 #include "tools/replay/replay_run.hpp"
 
+namespace {
+
+constexpr const char* kUsage =
+    "usage: zonemap-replay SEQUENCE --config FILE --out DIR [options]\n"
+    "  SEQUENCE        a replay directory (FORMATS.md 1: depth.txt, depth/, camera.yaml, poses)\n"
+    "  --config FILE   the mapping configuration (e.g. config/paper-flight2.yaml)\n"
+    "  --out DIR       where stats.json, boxes.csv, height.png and occupied.ply go\n"
+    "  --camera FILE   camera.yaml to use instead of SEQUENCE/camera.yaml\n"
+    "  --quiet         no progress line, no per-frame log\n"
+    "  --pipeline      run the onboard runtime (threads and lock-free queues), lossless\n"
+    "  --live          the runtime with newest-frame-wins (drops counted)\n"
+    "  --rate HZ       pace the frames like a camera at HZ (implies --pipeline)\n"
+    "  --mlock         lock the process's memory (needs CAP_IPC_LOCK)\n"
+    "  --help          this text\n";
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+  }
   if (std::string cpu_problem; !zonemap::os::cpu_runs_this_build(&cpu_problem)) {
     std::fprintf(stderr, "%s: %s\n", argv[0], cpu_problem.c_str());
     return 2;
@@ -61,9 +83,7 @@ int main(int argc, char** argv) {
     if (!ok) return 2;
   }
   if (options.sequence_dir.empty() || options.config_path.empty() || out_dir.empty()) {
-    std::fprintf(
-        stderr,
-        "usage: zonemap-replay SEQUENCE --config FILE --out DIR [--camera FILE] [--quiet]\n");
+    std::fputs(kUsage, stderr);
     return 2;
   }
   options.progress = !options.quiet;

@@ -224,7 +224,10 @@ void expect_threaded_equals_single(const char* scenario, double rate_hz, int fra
   const std::string config =
       test_sequence(dir, scenario, rate_hz, static_cast<std::size_t>(frames));
   ASSERT_FALSE(config.empty());
-  tools::ReplayOptions options{dir / "seq", config, "", false, true};
+  tools::ReplayOptions options;
+  options.sequence_dir = dir / "seq";
+  options.config_path = config;
+  options.quiet = true;
   std::string error;
   tools::ReplayRun single;
   ASSERT_TRUE(single.open(options, &error)) << error;
@@ -284,7 +287,10 @@ TEST(Pipeline, ThreadedRunEqualsSingleThreadedRunWithZonesComingBack) {
 TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
   testing::TempDir dir;
   const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);  // zones come and go
-  tools::ReplayOptions options{dir / "seq", config, "", false, true};
+  tools::ReplayOptions options;
+  options.sequence_dir = dir / "seq";
+  options.config_path = config;
+  options.quiet = true;
   std::string error;
   tools::ReplayRun run;
   ASSERT_TRUE(run.open(options, &error)) << error;
@@ -329,7 +335,10 @@ TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
   // back on the out-and-back flight and get their stored obstacles.
   testing::TempDir dir;
   const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);
-  tools::ReplayOptions options{dir / "seq", config, "", false, true};
+  tools::ReplayOptions options;
+  options.sequence_dir = dir / "seq";
+  options.config_path = config;
+  options.quiet = true;
   std::string error;
   tools::ReplayRun run;
   ASSERT_TRUE(run.open(options, &error)) << error;
@@ -384,7 +393,9 @@ TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
   hooks.total = static_cast<std::int64_t>(sequence.frame_count());
   runtime::PipelineOptions options;
   options.lossless = false;  // newest wins
-  runtime::Pipeline pipeline(sequence, mapper, features, hooks, options);
+  hal::ReplayFrameSource frames(sequence, options.source_rate_hz);
+  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, mapper, features, hooks,
+                             options);
   hooks.pipeline = &pipeline;
   pipeline.run();
   const runtime::PipelineStats& s = pipeline.stats();

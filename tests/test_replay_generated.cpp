@@ -237,7 +237,10 @@ TEST(ReplayGenerated, HeightProfileShowsBothPostsWhereTheyAre) {
   const std::string sequence = dir / "seq";
   const std::string config = testing::write_test_scenario("posts-around", sequence, 3.0, 4);
   tools::ReplayRun run;
-  tools::ReplayOptions options{sequence, config, "", false, true};
+  tools::ReplayOptions options;
+  options.sequence_dir = sequence;
+  options.config_path = config;
+  options.quiet = true;
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();

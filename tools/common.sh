@@ -3,7 +3,7 @@
 
 ZONEMAP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ZONEMAP_PACKAGES=(cmake ninja-build g++ pkg-config libeigen3-dev libpng-dev zlib1g-dev
-                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin iproute2)
+                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin libzstd-dev iproute2)
 
 # Installs the Debian packages that are not installed yet; silent when none is missing.
 zonemap_install() {
@@ -34,7 +34,7 @@ zonemap_install_cross_aarch64() {
     "${sudo[@]}" apt-get update -qq >/dev/null
   fi
   zonemap_install g++-aarch64-linux-gnu qemu-user-static libgtest-dev:arm64 libpng-dev:arm64 \
-    zlib1g-dev:arm64 libyaml-cpp0.7:arm64 libglib2.0-0:arm64
+    zlib1g-dev:arm64 libzstd-dev:arm64 libyaml-cpp0.7:arm64 libglib2.0-0:arm64
   # libyaml-cpp-dev is not Multi-Arch: installing its :arm64 package would remove the
   # native one. Unpack it into a project-owned sysroot instead (the toolchain file
   # adds it to CMAKE_FIND_ROOT_PATH).
@@ -66,23 +66,30 @@ zonemap_build() {
   rm -f "$log"
 }
 
-# The independent decoders the tests check our outputs with (npm, tests/js):
-# Node.js from Debian when it is missing, then `npm ci` from the lock file. When
-# the registry cannot be reached the tests that need them are skipped, and say so.
+# npm packages, each from its lock file (`npm ci`), installed once per lock:
+#   tests/js      the independent decoders the tests check our outputs with
+#   tools/report  three.js and esbuild, for report.html's 3-D view (bundled at build time)
+# Node.js comes from Debian when it is missing. When the registry cannot be reached
+# the tests that need the decoders are skipped, and the report has no 3-D view;
+# both say so.
 zonemap_install_js() {
   if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
     zonemap_install nodejs npm || true
   fi
-  local dir="$ZONEMAP_ROOT/tests/js"
-  command -v npm >/dev/null 2>&1 || { echo "zonemap: no npm: independent-decoder tests will be skipped" >&2; return 0; }
-  if [ ! -f "$dir/node_modules/.package-lock.json" ] ||
-     ! cmp -s "$dir/package-lock.json" "$dir/node_modules/.zonemap-lock"; then
+  command -v npm >/dev/null 2>&1 || {
+    echo "zonemap: no npm: independent-decoder tests will be skipped, report.html has no 3-D view" >&2
+    return 0
+  }
+  local dir
+  for dir in "$ZONEMAP_ROOT/tests/js" "$ZONEMAP_ROOT/tools/report"; do
+    [ -f "$dir/node_modules/.package-lock.json" ] &&
+      cmp -s "$dir/package-lock.json" "$dir/node_modules/.zonemap-lock" && continue
     if (cd "$dir" && timeout 300 npm ci --no-audit --no-fund --loglevel=error >/dev/null 2>&1); then
       cp "$dir/package-lock.json" "$dir/node_modules/.zonemap-lock"
     else
-      echo "zonemap: npm registry unreachable (npm ci in tests/js failed): independent-decoder tests will be skipped" >&2
+      echo "zonemap: npm registry unreachable (npm ci in ${dir#"$ZONEMAP_ROOT"/} failed)" >&2
     fi
-  fi
+  done
 }
 
 # After a ctest run: one line naming every test that was skipped, and why (the

@@ -172,21 +172,18 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"local_grid\": " << s.local_grid_bytes << ", \"feature_map\": " << s.feature_map_bytes
       << ", \"depth_table\": " << s.depth_table_bytes << ", \"pipeline\": " << s.pipeline_bytes
       << "}";
-  if (!s.rejections.empty()) {
-    out << ",\n  \"rejections\": {";
-    for (std::size_t i = 0; i < s.rejections.size(); ++i) {
-      out << (i == 0 ? "" : ", ") << "\"" << s.rejections[i].first
-          << "\": " << s.rejections[i].second;
+  // Counters by name, as one object each (only when there are any).
+  auto named = [&out](const char* key, const std::vector<std::pair<std::string, std::int64_t>>& v) {
+    if (v.empty()) return;
+    out << ",\n  \"" << key << "\": {";
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      out << (i == 0 ? "" : ", ") << "\"" << v[i].first << "\": " << v[i].second;
     }
     out << "}";
-  }
-  if (!s.links.empty()) {  // the daemon: vehicle-link counters by name
-    out << ",\n  \"links\": {";
-    for (std::size_t i = 0; i < s.links.size(); ++i) {
-      out << (i == 0 ? "" : ", ") << "\"" << s.links[i].first << "\": " << s.links[i].second;
-    }
-    out << "}";
-  }
+  };
+  named("rejections", s.rejections);
+  named("links", s.links);  // the daemon's vehicle-link counters
+  named("recording", s.recording);
   out << "\n}\n";
   out.close();
   if (!out) {
@@ -223,18 +220,9 @@ std::int64_t write_occupied_ply(const std::string& path, Mapper& mapper, std::st
     int value;
   };
   std::vector<Point> points;
-  const FusedCell threshold = mapper.occupied_threshold();
-  mapper.zones().for_each_live_zone([&](ZoneView& zone) {
-    for (int z = 0; z < zone.dims[2]; ++z)
-      for (int y = 0; y < zone.dims[1]; ++y)
-        for (int x = 0; x < zone.dims[0]; ++x) {
-          const FusedCell v = zone.cells[zone.index(x, y, z)];
-          if (v <= threshold) continue;
-          const Eigen::Vector3d c = mapper.cell_center(
-              CellIndex{zone.origin.x + x, zone.origin.y + y, zone.origin.z + z});
-          points.push_back(
-              {static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()), v});
-        }
+  mapper.for_each_occupied_cell([&](const Eigen::Vector3d& c, FusedCell v) {
+    points.push_back(
+        {static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()), v});
   });
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) {

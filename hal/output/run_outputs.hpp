@@ -70,6 +70,8 @@ struct RunStats {
   std::vector<std::pair<std::string, std::int64_t>> links;  // vehicle-link counters (daemon)
   // Every refused input item by kind, and the clock steps adopted (replay).
   std::vector<std::pair<std::string, std::int64_t>> rejections;
+  // The MCAP recording (OUT/run.mcap): messages, bytes, drops, reserved memory.
+  std::vector<std::pair<std::string, std::int64_t>> recording;
 };
 
 // boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells

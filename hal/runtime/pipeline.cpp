@@ -7,7 +7,6 @@
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/doorbell.hpp"
 #include "hal/os/realtime.hpp"
-#include "hal/replay/replay_frame_source.hpp"
 #include "zonemap/extraction_schedule.hpp"
 #include "zonemap/pose_buffer.hpp"
 #include "zonemap/spsc_queue.hpp"
@@ -106,7 +105,6 @@ PipelineOptions PipelineOptions::from(const RuntimeConfig& runtime) {
 }
 
 struct Pipeline::Impl {
-  std::unique_ptr<hal::ReplayFrameSource> owned_source;
   hal::FrameSource& source;
   const PoseTrack* replay_poses;
   hal::PoseSource* live_poses;
@@ -591,6 +589,7 @@ struct Pipeline::Impl {
       context_vehicle = pose.translation();
       const double frame_time = frame.time_s;
       const FrameReport report = mapper.integrate(view, pose);
+      if (report.status == FrameStatus::kMapped) hooks.frame_mapped(frame, pose);
       push_waiting(free_slots, slot, mapping_bell);
       if (report.status != FrameStatus::kMapped) {
         ++s.frames_rejected;
@@ -725,16 +724,6 @@ void add_to_run_stats(const PipelineStats& p, hal::RunStats* s) {
   s->queue_ms_p99 = p.acquire_to_map_start.percentile(0.99);
   s->rss_after_start = p.rss_after_start;
   s->rss_at_end = p.rss_at_end;
-}
-
-Pipeline::Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
-                   MappingHooks& hooks, const PipelineOptions& options) {
-  auto source = std::make_unique<hal::ReplayFrameSource>(sequence, options.source_rate_hz);
-  impl_ = std::make_unique<Impl>(*source, &sequence.poses(), nullptr,
-                                 std::span<hal::ObstacleSink* const>{}, mapper, features, hooks,
-                                 options);
-  impl_->owned_source = std::move(source);
-  impl_->drop_frame = impl_->source.make_frame();
 }
 
 Pipeline::Pipeline(hal::FrameSource& frames, const PoseTrack* replay_poses,

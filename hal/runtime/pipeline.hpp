@@ -21,7 +21,6 @@
 #include "hal/ins/pose_source.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/output/run_outputs.hpp"
-#include "hal/replay/sequence.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/latency_histogram.hpp"
@@ -95,6 +94,11 @@ class MappingHooks {
   // After each mapped frame: trajectory, timings, etc.
   virtual void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                            const FrameReport& report, double mapping_ms) = 0;
+  // A mapped frame and the camera pose it was mapped with, before its buffer goes
+  // back to the pool (to copy what is needed of it, e.g. into a recording's
+  // slot); nothing by default.
+  virtual void frame_mapped(const hal::CameraFrame& /*frame*/,
+                            const Eigen::Isometry3d& /*world_T_camera*/) {}
 };
 
 // Adds a pipeline run's figures to stats.json's (frames, drops, latency, memory,
@@ -109,10 +113,6 @@ class Pipeline {
   // periodic extraction in flight.
   static constexpr int kSnapshotSlots = kZonesHeld + 2;
 
-  // Replay: the sequence's frames (paced at options.source_rate_hz) and its poses,
-  // pushed as the frames come.
-  Pipeline(const hal::ReplaySequence& sequence, Mapper& mapper, FeatureMap& features,
-           MappingHooks& hooks, const PipelineOptions& options);
   // Any frame source. Poses: either `replay_poses` (pushed as the frames come) or a
   // live source polled on its own INS thread. Sinks get every published update.
   Pipeline(hal::FrameSource& frames, const PoseTrack* replay_poses, hal::PoseSource* live_poses,

@@ -28,6 +28,9 @@ class LatencyHistogram {
     return max_ms_;
   }
   std::uint64_t count() const { return count_; }
+  static double upper_edge(int b) { return 1e-3 * std::pow(10.0, b / 20.0); }
+  // Samples in bin b (its upper edge: upper_edge(b)), for plotting.
+  std::uint64_t bin_count(int b) const { return bins_[static_cast<std::size_t>(b)]; }
   double max_ms() const { return max_ms_; }
   std::uint64_t count_above(double ms) const {
     std::uint64_t n = 0;
@@ -41,7 +44,6 @@ class LatencyHistogram {
     const int b = static_cast<int>(std::floor(std::log10(ms / 1e-3) * 20.0)) + 1;
     return b < 0 ? 0 : (b >= kBins ? kBins - 1 : b);
   }
-  static double upper_edge(int b) { return 1e-3 * std::pow(10.0, b / 20.0); }
 
   std::array<std::uint64_t, kBins> bins_{};
   std::uint64_t count_ = 0;

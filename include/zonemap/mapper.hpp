@@ -77,6 +77,19 @@ class Mapper {
   }
 
   FusedCell occupied_threshold() const { return occupied_threshold_; }
+  // Every occupied cell of the zones holding a grid: fn(cell centre, fused value).
+  template <typename Fn>
+  void for_each_occupied_cell(Fn&& fn) {
+    zones_.for_each_live_zone([&](ZoneView& zone) {
+      for (int z = 0; z < zone.dims[2]; ++z)
+        for (int y = 0; y < zone.dims[1]; ++y)
+          for (int x = 0; x < zone.dims[0]; ++x) {
+            const FusedCell v = zone.cells[zone.index(x, y, z)];
+            if (v <= occupied_threshold_) continue;
+            fn(cell_center(CellIndex{zone.origin.x + x, zone.origin.y + y, zone.origin.z + z}), v);
+          }
+    });
+  }
   FusedCell free_threshold() const { return free_threshold_; }
 
  private:

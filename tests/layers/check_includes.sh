@@ -18,9 +18,6 @@ known_debts=(
   # The replay library reads INS logs through the vehicle links' decoders (issue: one pose-log loader).
   "hal/replay/sequence.cpp:hal/can/can_pose_source.hpp"
   "hal/replay/sequence.cpp:hal/lcm/lcm_link.hpp"
-  # The runtime builds a replay source for the host replay's convenience constructor.
-  "hal/runtime/pipeline.cpp:hal/replay/replay_frame_source.hpp"
-  "hal/runtime/pipeline.hpp:hal/replay/sequence.hpp"
   # The height profile's PNG comes from the replay back-end's PNG codec (a file format of its own).
   "hal/output/run_outputs.cpp:hal/replay/png_io.hpp"
 )

@@ -121,6 +121,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
 
   runtime::PipelineOptions options = runtime::PipelineOptions::from(map_config_.runtime);
+  if (!config.record_path.empty() && !open_recorder(options.footprint_rects, error)) return false;
   options.lossless = !config.live;
   options.health_period_s = config.health_period_s;
   options.body_T_camera = mount;
@@ -172,6 +173,62 @@ void VehicleDaemon::run() {
   if (live_poses_) pose_counters_ = live_poses_->counters();
   // Every live zone's objects into the feature map for the final boxes.
   mapper_->zones().for_each_live_zone([this](ZoneView& zone) { features_->extract(zone); });
+  close_recorder();
+}
+
+// The recording is one more sink (boxes, sectors, health from the output thread);
+// poses and depth come from the mapping thread through frame_mapped().
+bool VehicleDaemon::open_recorder(std::size_t footprint_rects, std::string* error) {
+  record::RecorderConfig rc;
+  rc.path = config_.record_path;
+  rc.max_boxes = features_->capacity();
+  rc.max_rects = footprint_rects;
+  rc.depth_width = camera_.width;
+  rc.depth_height = camera_.height;
+  rc.depth_decimation = camera_.width > 320 ? 2 : 1;
+  rc.world_z_up = camera_.world_z_up;
+  rc.body_T_camera = camera_.body_T_camera;
+  rc.sectors = config_.mavlink.sectors;
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(rc.path).parent_path(), ec);
+  auto recorder = std::make_unique<record::FlightRecorder>();
+  if (!recorder->open(rc, error)) return false;
+  recorder_ = recorder.get();
+  sinks_.push_back(std::move(recorder));
+  return true;
+}
+
+void VehicleDaemon::frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) {
+  last_time_s_ = frame.time_s;
+  last_world_T_camera_ = pose;
+  if (recorder_ == nullptr) return;
+  recorder_->record_pose(frame.time_s, pose * camera_.body_T_camera.inverse());
+  if (config_.record_depth_every > 0 && depth_offered_++ % config_.record_depth_every == 0) {
+    recorder_->record_depth(frame.time_s, frame.depth.data());
+  }
+}
+
+// The final scene (every feature, with footprints), then the file's summary.
+void VehicleDaemon::close_recorder() {
+  if (recorder_ == nullptr) return;
+  std::vector<ObstacleBox> boxes(features_->capacity());
+  std::vector<FootprintRect> rects(1 << 16);
+  std::vector<std::uint32_t> offsets(boxes.size()), counts(boxes.size());
+  FootprintOutput shapes{rects.data(), rects.size(), offsets.data(), counts.data()};
+  hal::ObstacleUpdate update;
+  update.time_s = last_time_s_;
+  update.world_T_body = last_world_T_camera_ * camera_.body_T_camera.inverse();
+  update.world_z_up = camera_.world_z_up;
+  update.count = features_->merged(boxes.data(), boxes.size(), true, &shapes);
+  update.boxes = boxes.data();
+  update.rects = rects.data();
+  update.rect_offsets = offsets.data();
+  update.rect_counts = counts.data();
+  recorder_->record_final_boxes(update);
+  // The grid is the mapping thread's during the flight: its cells go in once, now.
+  recorder_->record_occupied(last_time_s_, *mapper_);
+  std::string error;
+  if (!recorder_->close(&error)) std::fprintf(stderr, "zonemap: recording: %s\n", error.c_str());
 }
 
 void VehicleDaemon::stop() {

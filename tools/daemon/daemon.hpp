@@ -9,6 +9,7 @@
 #include "hal/frames/frame_source.hpp"
 #include "hal/ins/pose_source.hpp"
 #include "hal/output/obstacle_sink.hpp"
+#include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/runtime/pipeline.hpp"
 #include "tools/daemon/vehicle_config.hpp"
@@ -39,6 +40,9 @@ class VehicleDaemon : private runtime::MappingHooks {
  private:
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;
+  void frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) override;
+  bool open_recorder(std::size_t footprint_rects, std::string* error);
+  void close_recorder();
 
   VehicleConfig config_;
   MapConfig map_config_;
@@ -57,6 +61,10 @@ class VehicleDaemon : private runtime::MappingHooks {
   hal::PoseSourceCounters pose_counters_;
   std::int64_t frames_mapped_ = 0;
   std::vector<double> frame_ms_;
+  record::FlightRecorder* recorder_ = nullptr;  // one of sinks_, when outputs.record is set
+  std::int64_t depth_offered_ = 0;
+  double last_time_s_ = 0.0;  // the newest mapped frame (mapping thread; read after run)
+  Eigen::Isometry3d last_world_T_camera_ = Eigen::Isometry3d::Identity();
 };
 
 }  // namespace zonemap::daemon

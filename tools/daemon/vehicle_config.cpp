@@ -124,6 +124,11 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
           section("outputs",
                   {{"directory", into(&c.output_dir)},
                    {"health_period_s", into(&c.health_period_s)},
+                   {"record", [&](const YAML::Node& node) {
+                      hal::read_section(path, node, "outputs.record",
+                                        {{"path", into(&c.record_path)},
+                                         {"depth_every", into(&c.record_depth_every)}});
+                    }},
                    {"can", [&](const YAML::Node& node) {
                       c.can_output = true;
                       hal::read_section(path, node, "outputs.can",
@@ -193,6 +198,7 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
             "rates and periods must be positive")) {
     return false;
   }
+  if (!need(c.record_depth_every >= 0, "outputs.record.depth_every must be >= 0")) return false;
   if (c.mavlink_output) {
     const std::string why = mavlink::validate(c.mavlink);
     if (!need(why.empty(), why.c_str())) return false;
@@ -202,6 +208,7 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
   c.sequence_dir = relative_to(path, c.sequence_dir);
   c.pose_log_path = relative_to(path, c.pose_log_path);
   c.output_dir = relative_to(path, c.output_dir);
+  c.record_path = relative_to(path, c.record_path);
   *out = c;
   return true;
 }

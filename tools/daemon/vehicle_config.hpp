@@ -44,7 +44,9 @@ struct VehicleConfig {
   bool mavlink_output = false;
   mavlink::MavlinkUdpConfig mavlink;
   double health_period_s = 1.0;
-  bool live = false;  // newest wins (drop frames when behind); replay default: lossless
+  std::string record_path;      // a Foxglove recording (MCAP) of the flight (empty: none)
+  int record_depth_every = 10;  // every n-th mapped depth frame into it (0: none)
+  bool live = false;            // newest wins (drop frames when behind); replay default: lossless
 };
 
 bool load_vehicle_config(const std::string& path, VehicleConfig* config, std::string* error);

@@ -1,7 +1,8 @@
 // zonemap-replay: maps a recorded or generated flight and writes DIR/stats.json,
-// DIR/boxes.csv, DIR/height.png and DIR/occupied.ply (usage below).
+// DIR/boxes.csv, DIR/height.png, DIR/occupied.ply and DIR/run.mcap (usage below).
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 
 #include "hal/os/realtime.hpp"
@@ -13,9 +14,11 @@ constexpr const char* kUsage =
     "usage: zonemap-replay SEQUENCE --config FILE --out DIR [options]\n"
     "  SEQUENCE        a replay directory (FORMATS.md 1: depth.txt, depth/, camera.yaml, poses)\n"
     "  --config FILE   the mapping configuration (e.g. config/paper-flight2.yaml)\n"
-    "  --out DIR       where stats.json, boxes.csv, height.png and occupied.ply go\n"
+    "  --out DIR       where stats.json, boxes.csv, height.png, occupied.ply and run.mcap go\n"
     "  --camera FILE   camera.yaml to use instead of SEQUENCE/camera.yaml\n"
     "  --quiet         no progress line, no per-frame log\n"
+    "  --no-record     no DIR/run.mcap (the Foxglove recording of the run)\n"
+    "  --depth-every N every N-th mapped depth frame into run.mcap (default 5; 0: none)\n"
     "  --pipeline      run the onboard runtime (threads and lock-free queues), lossless\n"
     "  --live          the runtime with newest-frame-wins (drops counted)\n"
     "  --rate HZ       pace the frames like a camera at HZ (implies --pipeline)\n"
@@ -38,6 +41,7 @@ int main(int argc, char** argv) {
   zonemap::tools::ReplayOptions options;
   zonemap::runtime::PipelineOptions pipeline;  // flags only: lossless, rate, mlock
   bool pipelined = false;
+  bool record = true;
   std::string out_dir;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -58,6 +62,17 @@ int main(int argc, char** argv) {
       ok = value(&options.camera_path);
     } else if (arg == "--quiet") {
       options.quiet = true;
+    } else if (arg == "--no-record") {
+      record = false;
+    } else if (arg == "--depth-every") {
+      std::string every;
+      ok = value(&every);
+      options.record_depth_every = std::atoi(every.c_str());
+      if (ok && (options.record_depth_every < 0 ||
+                 every.find_first_not_of("0123456789") != std::string::npos)) {
+        std::fprintf(stderr, "zonemap-replay: --depth-every needs a count >= 0\n");
+        ok = false;
+      }
     } else if (arg == "--pipeline") {
       pipelined = true;
     } else if (arg == "--live") {
@@ -87,6 +102,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.progress = !options.quiet;
+  if (record) {
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir, ec);  // the recording starts with the run
+    options.record_path = out_dir + "/run.mcap";
+  }
   zonemap::tools::ReplayRun run;
   std::string error;
   if (!run.open(options, &error)) {
@@ -111,13 +131,13 @@ int main(int argc, char** argv) {
       "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld, dropped %lld; frame ms "
       "p50 %.2f p99 %.2f "
       "max %.2f; zones allocated %lld; reserved %.1f MiB; heap allocations after init %lld\n"
-      "outputs: %s/stats.json %s/height.png %s/occupied.ply\n",
+      "outputs: %s/stats.json %s/boxes.csv %s/height.png %s/occupied.ply%s\n",
       static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
       static_cast<long long>(s.frames_skipped_no_pose), static_cast<long long>(s.frames_rejected),
       static_cast<long long>(s.dropped_mapper_behind + s.dropped_pool_full), s.frame_ms_p50,
       s.frame_ms_p99, s.frame_ms_max, static_cast<long long>(s.zones_allocated),
       static_cast<double>(s.static_memory_bytes) / 1048576.0,
       static_cast<long long>(s.heap_allocations_after_init), out_dir.c_str(), out_dir.c_str(),
-      out_dir.c_str());
+      out_dir.c_str(), out_dir.c_str(), record ? (" " + out_dir + "/run.mcap").c_str() : "");
   return 0;
 }

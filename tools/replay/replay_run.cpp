@@ -7,13 +7,26 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <span>
 
 #include "hal/os/allocation_counter.hpp"
+#include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
+#include "tools/eval/evaluate.hpp"
+#include "tools/report/report.hpp"
 
 namespace zonemap::tools {
 namespace {
-constexpr std::int64_t kLoggedPerKind = 5;  // then only the totals in stats.json
+constexpr std::int64_t kLoggedPerKind = 5;        // then only the totals in stats.json
+constexpr double kRecordedOccupiedPeriodS = 1.0;  // occupied cells into the recording
+constexpr double kRecordedBoxesPeriodS = 0.5;     // boxes, when they changed
+constexpr std::size_t kRecordedRects = 16384;     // footprint rectangles per update
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 double mebibytes(std::uint64_t bytes) {
   return static_cast<double>(bytes) / 1048576.0;
 }
@@ -122,7 +135,102 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
                  mebibytes(stats_.local_grid_bytes), mebibytes(stats_.feature_map_bytes),
                  config_.features.capacity, mebibytes(stats_.depth_table_bytes));
   }
+  return options.record_path.empty() || open_recorder(error);
+}
+
+// The recording's own thread and slots; the replay loop only copies into them.
+bool ReplayRun::open_recorder(std::string* error) {
+  const CameraModel& cam = sequence_.camera();
+  record::RecorderConfig rc;
+  rc.path = options_.record_path;
+  rc.max_boxes = features_->capacity();
+  rc.max_rects = kRecordedRects;
+  rc.depth_width = cam.width;
+  rc.depth_height = cam.height;
+  rc.depth_decimation = cam.width > 320 ? 2 : 1;
+  rc.world_z_up = cam.world_z_up;
+  rc.body_T_camera = cam.body_T_camera;
+  rc.sectors.max_distance_m = std::min(rc.sectors.max_distance_m, config_.d_max_m);
+  update_boxes_.resize(rc.max_boxes);
+  update_rects_.resize(rc.max_rects);
+  update_offsets_.resize(rc.max_boxes);
+  update_counts_.resize(rc.max_boxes);
+  recorder_ = std::make_unique<record::FlightRecorder>();
+  if (!recorder_->open(rc, error)) return false;
   return true;
+}
+
+void ReplayRun::record_frame(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) {
+  if (!recorder_) return;
+  const double t = frame.time_s;
+  frame_mapped(frame, pose);
+  if (t - recorded_occupied_s_ >= kRecordedOccupiedPeriodS) {
+    recorded_occupied_s_ = t;
+    recorder_->record_occupied(t, *mapper_);
+  }
+  if (boxes_changed_ && t - recorded_boxes_s_ >= kRecordedBoxesPeriodS) {
+    record_boxes(t, pose, false);
+  }
+  if (t - recorded_health_s_ >= 1.0) record_health(t);
+}
+
+// The pose and every n-th depth of a mapped frame (on the pipeline's mapping
+// thread too: copies into reserved slots); boxes and sectors reach the recorder
+// as a sink of the output thread.
+void ReplayRun::frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) {
+  if (!recorder_) return;
+  recorder_->record_pose(frame.time_s, pose * sequence_.camera().body_T_camera.inverse());
+  if (options_.record_depth_every > 0 && depth_offered_++ % options_.record_depth_every == 0) {
+    recorder_->record_depth(frame.time_s, frame.depth.data());
+  }
+}
+
+// The merged boxes (ground too, as boxes.csv has them) with their footprints and
+// the sectors the map has seen around the vehicle.
+void ReplayRun::record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final) {
+  FootprintOutput shapes;
+  shapes.rects = update_rects_.data();
+  shapes.capacity = update_rects_.size();
+  shapes.offsets = update_offsets_.data();
+  shapes.counts = update_counts_.data();
+  hal::ObstacleUpdate update;
+  update.time_s = time_s;
+  update.world_T_body = world_T_camera * sequence_.camera().body_T_camera.inverse();
+  update.world_z_up = sequence_.camera().world_z_up;
+  update.count = features_->merged(update_boxes_.data(), update_boxes_.size(), true, &shapes);
+  update.boxes = update_boxes_.data();
+  update.rects = update_rects_.data();
+  update.rect_offsets = update_offsets_.data();
+  update.rect_counts = update_counts_.data();
+  SectorConfig sectors;
+  sectors.max_distance_m = std::min(sectors.max_distance_m, config_.d_max_m);
+  update.sectors_observed = observed_sectors(mapper_->zones(), config_.cell_size_m,
+                                             update.world_T_body, update.world_z_up, sectors);
+  recorded_boxes_s_ = time_s;
+  boxes_changed_ = false;
+  if (final) {
+    recorder_->record_final_boxes(update);
+  } else {
+    recorder_->record_boxes(update);
+  }
+}
+
+void ReplayRun::record_health(double time_s) {
+  recorded_health_s_ = time_s;
+  hal::HealthSnapshot h;
+  h.time_s = time_s;
+  h.frames_in = stats_.frames_in;
+  h.frames_mapped = stats_.frames_mapped;
+  h.frames_rejected = stats_.frames_rejected;
+  h.frames_skipped_no_pose = stats_.frames_skipped_no_pose;
+  h.poses_rejected = stats_.poses_rejected;
+  h.heap_allocations_after_init = stats_.heap_allocations_after_init;
+  h.zones_allocated = static_cast<std::int32_t>(mapper_->zones().zones_allocated());
+  h.features = static_cast<std::int32_t>(features_->count());
+  h.mapping_ms_p50 = frame_ms_.empty() ? 0.0 : frame_ms_.back();
+  h.add("rays_hit", stats_.rays_hit);
+  h.add("cells_visited", stats_.cells_visited);
+  recorder_->record_health(h);
 }
 
 void ReplayRun::run_frames(std::size_t first, std::size_t last) {
@@ -130,7 +238,8 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
   std::string why;
   const std::size_t n = std::min(last, sequence_.frame_count());
   const bool show_progress = options_.progress && isatty(STDERR_FILENO);
-  auto last_progress = std::chrono::steady_clock::now();
+  const auto started = std::chrono::steady_clock::now();
+  auto last_progress = started;
   for (std::size_t i = first; i < n; ++i) {
     ++stats_.frames_in;
     // Decoding files is the host HAL's work, outside the mapping path's count.
@@ -184,11 +293,18 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
       continue;
     }
     account_mapped_frame(i, pose, report, ms);
+    record_frame(frame, pose);
     const auto now = std::chrono::steady_clock::now();
     if (show_progress && (now - last_progress > std::chrono::milliseconds(250) || i + 1 == n)) {
       last_progress = now;
-      std::fprintf(stderr, "\rzonemap-replay: frame %zu/%zu, %.1f ms, %d zones live   ", i + 1, n,
-                   ms, mapper_->zones().live_zone_count());
+      // Frames done, the rate so far and the time left at that rate.
+      const double elapsed_s = std::chrono::duration<double>(now - started).count();
+      const double rate = elapsed_s > 0.0 ? static_cast<double>(i + 1 - first) / elapsed_s : 0.0;
+      const double left_s = rate > 0.0 ? static_cast<double>(n - i - 1) / rate : 0.0;
+      std::fprintf(stderr,
+                   "\rzonemap-replay: frame %zu/%zu, %.1f frames/s, %.0f s left, %.1f ms, %d zones "
+                   "live   ",
+                   i + 1, n, rate, left_s, ms, mapper_->zones().live_zone_count());
       progress_shown_ = true;
     }
   }
@@ -201,6 +317,8 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   // Everything here writes into storage reserved at open(): it runs on the
   // pipeline's mapping thread too.
   ++stats_.frames_mapped;
+  last_time_s_ = sequence_.entry(frame_index).time_s;
+  last_world_T_camera_ = pose;
   frame_ms_.push_back(mapping_ms);
   // Periodic extraction (ExtractionSchedule); the pipeline does its own on its
   // extraction thread, on the same schedule.
@@ -227,7 +345,14 @@ void ReplayRun::after_frame(std::size_t frame_index, const Eigen::Isometry3d& po
 
 void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
   in_pipeline_ = true;
-  runtime::Pipeline pipeline(sequence_, *mapper_, *features_, *this, options);
+  hal::ReplayFrameSource frames(sequence_, options.source_rate_hz);
+  hal::ObstacleSink* recorder_sink = recorder_.get();
+  const std::span<hal::ObstacleSink* const> sinks(&recorder_sink, recorder_ ? 1 : 0);
+  runtime::PipelineOptions with_ground = options;
+  // The recording shows every box, as boxes.csv does.
+  with_ground.include_ground = options.include_ground || recorder_ != nullptr;
+  runtime::Pipeline pipeline(frames, &sequence_.poses(), nullptr, sinks, *mapper_, *features_,
+                             *this, with_ground);
   stats_.pipeline_bytes = pipeline.reserved_bytes();
   stats_.static_memory_bytes += stats_.pipeline_bytes;
   if (!options_.quiet) {
@@ -268,7 +393,35 @@ void ReplayRun::finish() {
       extract_ms_.empty() ? 0.0 : *std::max_element(extract_ms_.begin(), extract_ms_.end());
   stats_.features = static_cast<std::int64_t>(features_->count());
   stats_.feature_counters = features_->counters();
+  if (recorder_) close_recording();
   finished_ = true;
+}
+
+// The last occupied cells, every feature (as boxes.csv will have them), the last
+// health; then the recorder drains its queues and writes the summary.
+void ReplayRun::close_recording() {
+  const double t = last_time_s_;
+  recorder_->record_occupied(t, *mapper_);
+  record_boxes(t, last_world_T_camera_, true);
+  record_health(t);
+  std::string error;
+  if (!recorder_->close(&error) && !options_.quiet) {
+    std::fprintf(stderr, "zonemap-replay: recording: %s\n", error.c_str());
+  }
+  const record::RecorderCounts c = recorder_->counts();
+  stats_.recording = {{"messages", c.messages},
+                      {"bytes", c.bytes},
+                      {"bytes_uncompressed", c.bytes_uncompressed},
+                      {"chunks", c.chunks},
+                      {"boxes_updates", c.boxes_updates},
+                      {"occupied_clouds", c.occupied_clouds},
+                      {"occupied_truncated", c.occupied_truncated},
+                      {"poses", c.poses},
+                      {"depth_images", c.depth_images},
+                      {"health", c.health},
+                      {"dropped", c.dropped},
+                      {"reserved_bytes", static_cast<std::int64_t>(recorder_->reserved_bytes())}};
+  recorder_.reset();
 }
 
 void ReplayRun::extract_live_zones() {
@@ -291,6 +444,7 @@ void ReplayRun::extract_zone(int pick) {
     os::AllocationScope scope;
     ZoneView zone;
     if (mapper_->zones().nth_live_view(pick, &zone)) features_->extract(zone);
+    boxes_changed_ = true;
     const os::AllocationCounts counted = scope.counted();
     stats_.heap_allocations_after_init += counted.allocations;
     stats_.heap_frees_after_init += counted.frees;
@@ -349,7 +503,63 @@ bool ReplayRun::write_outputs(const std::string& out_dir, std::string* error) {
                           error)) {
     return false;
   }
-  return hal::write_stats_json(out_dir + "/stats.json", stats_, error);
+  return hal::write_stats_json(out_dir + "/stats.json", stats_, error) &&
+         write_report(out_dir, error);
+}
+
+// OUT/report.html from what was just written and the run's own figures; the
+// evaluation when the sequence has objects.yaml (as zonemap-eval computes it).
+bool ReplayRun::write_report(const std::string& out_dir, std::string* error) {
+  ReportInputs in;
+  in.title = std::filesystem::path(options_.sequence_dir).lexically_normal().string();
+  in.stats_json = read_file(out_dir + "/stats.json");
+  in.height_png = read_file(out_dir + "/height.png");
+  const std::string objects_path = options_.sequence_dir + "/objects.yaml";
+  std::vector<TruthObject> objects;
+  std::vector<RunBox> run_boxes;
+  std::string eval_error;
+  if (std::filesystem::exists(objects_path) &&
+      load_objects_yaml(objects_path, &objects, &eval_error) &&
+      load_boxes_csv(out_dir + "/boxes.csv", &run_boxes, &eval_error)) {
+    in.evaluation_json = to_json(evaluate(objects, run_boxes, config_.cell_size_m));
+  }
+  std::vector<FootprintRect> rects(kRecordedRects);
+  std::vector<std::uint32_t> offsets(features_->capacity()), counts(features_->capacity());
+  FootprintOutput shapes{rects.data(), rects.size(), offsets.data(), counts.data()};
+  in.boxes.resize(features_->capacity());
+  in.boxes.resize(features_->merged(in.boxes.data(), in.boxes.size(), true, &shapes));
+  for (std::size_t i = 0; i < in.boxes.size(); ++i) {
+    in.footprints.emplace_back(rects.begin() + offsets[i], rects.begin() + offsets[i] + counts[i]);
+  }
+  in.trajectory = trajectory_;
+  in.occupied = occupied_sample(kReportOccupiedCells);
+  in.frame_ms = frame_ms_;
+  const LatencyHistogram& e2e = pipeline_stats_.end_to_end;
+  for (int b = 0; b < LatencyHistogram::kBins; ++b) {
+    if (e2e.bin_count(b) > 0)
+      in.end_to_end_bins.emplace_back(LatencyHistogram::upper_edge(b), e2e.bin_count(b));
+  }
+  in.world_z_up = sequence_.camera().world_z_up;
+  in.cell_size_m = config_.cell_size_m;
+  return tools::write_report(out_dir + "/report.html", in, error);
+}
+
+// The live zones' occupied cell centres, every n-th when there are more than `most`.
+std::vector<float> ReplayRun::occupied_sample(std::size_t most) {
+  std::vector<float> all;
+  mapper_->for_each_occupied_cell([&](const Eigen::Vector3d& c, FusedCell) {
+    all.insert(all.end(),
+               {static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())});
+  });
+  const std::size_t cells = all.size() / 3;
+  if (cells <= most) return all;
+  std::vector<float> sample;
+  sample.reserve(most * 3);
+  for (std::size_t i = 0; i < most; ++i) {
+    const std::size_t pick = i * cells / most;
+    sample.insert(sample.end(), all.begin() + 3 * pick, all.begin() + 3 * pick + 3);
+  }
+  return sample;
 }
 
 }  // namespace zonemap::tools

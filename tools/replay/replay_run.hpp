@@ -3,11 +3,13 @@
 // zonemap-replay tool and by the end-to-end tests.
 #pragma once
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "hal/output/run_outputs.hpp"
+#include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/runtime/pipeline.hpp"
 #include "zonemap/extraction_schedule.hpp"
@@ -18,9 +20,11 @@ namespace zonemap::tools {
 struct ReplayOptions {
   std::string sequence_dir;
   std::string config_path;
-  std::string camera_path;  // empty: SEQUENCE/camera.yaml
-  bool progress = false;    // a progress line on stderr
-  bool quiet = false;       // no start-up report or rejection log
+  std::string camera_path;     // empty: SEQUENCE/camera.yaml
+  bool progress = false;       // a progress line on stderr
+  bool quiet = false;          // no start-up report or rejection log
+  std::string record_path;     // an MCAP recording of the run (empty: none)
+  int record_depth_every = 5;  // every n-th mapped frame's depth into the recording
 };
 
 class ReplayRun : private runtime::MappingHooks {
@@ -45,7 +49,8 @@ class ReplayRun : private runtime::MappingHooks {
   // Extracts the features of every zone holding a grid now (also done every
   // features.extract_every_frames frames and at finish()).
   void extract_live_zones();
-  // Writes OUT/stats.json, OUT/height.png and OUT/occupied.ply.
+  // Writes OUT/stats.json, OUT/boxes.csv, OUT/height.png, OUT/occupied.ply and
+  // OUT/report.html.
   bool write_outputs(const std::string& out_dir, std::string* error);
 
   const hal::RunStats& stats() const { return stats_; }
@@ -66,9 +71,17 @@ class ReplayRun : private runtime::MappingHooks {
   void extract_zone(int live_index);
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;
+  void frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) override;
   void account_mapped_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                             const FrameReport& report, double mapping_ms);
   void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
+  bool open_recorder(std::string* error);
+  void record_frame(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose);
+  void record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final);
+  void record_health(double time_s);
+  void close_recording();
+  bool write_report(const std::string& out_dir, std::string* error);
+  std::vector<float> occupied_sample(std::size_t most);
   void count_list_rejections();
   mutable bool progress_shown_ = false;  // the progress line holds the cursor
 
@@ -88,6 +101,17 @@ class ReplayRun : private runtime::MappingHooks {
   bool in_pipeline_ = false;  // on the mapping thread: count, do not print
   ExtractionSchedule schedule_{1};
   runtime::PipelineStats pipeline_stats_;
+  // The recording (OUT/run.mcap): its buffers and when each channel was last fed.
+  std::unique_ptr<record::FlightRecorder> recorder_;
+  std::vector<ObstacleBox> update_boxes_;
+  std::vector<FootprintRect> update_rects_;
+  std::vector<std::uint32_t> update_offsets_, update_counts_;
+  double recorded_occupied_s_ = -INFINITY, recorded_boxes_s_ = -INFINITY;
+  double recorded_health_s_ = -INFINITY;
+  bool boxes_changed_ = false;
+  std::int64_t depth_offered_ = 0;
+  double last_time_s_ = 0.0;  // the newest mapped frame
+  Eigen::Isometry3d last_world_T_camera_ = Eigen::Isometry3d::Identity();
 };
 
 }  // namespace zonemap::tools

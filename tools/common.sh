@@ -3,7 +3,9 @@
 
 ZONEMAP_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ZONEMAP_PACKAGES=(cmake ninja-build g++ pkg-config libeigen3-dev libpng-dev zlib1g-dev
-                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin libzstd-dev iproute2)
+                  libyaml-cpp-dev libgtest-dev liblcm-dev liblcm-bin libzstd-dev iproute2
+                  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
+                  libopencv-calib3d-dev)  # OpenCV: host stereo for ASL recordings only
 
 # Installs the Debian packages that are not installed yet; silent when none is missing.
 zonemap_install() {

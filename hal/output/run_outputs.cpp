@@ -184,6 +184,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
   named("rejections", s.rejections);
   named("links", s.links);  // the daemon's vehicle-link counters
   named("recording", s.recording);
+  named("stereo", s.stereo);
   out << "\n}\n";
   out.close();
   if (!out) {

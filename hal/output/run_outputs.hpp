@@ -72,6 +72,9 @@ struct RunStats {
   std::vector<std::pair<std::string, std::int64_t>> rejections;
   // The MCAP recording (OUT/run.mcap): messages, bytes, drops, reserved memory.
   std::vector<std::pair<std::string, std::int64_t>> recording;
+  // The host stereo step of an ASL recording (zonemap-replay on mav0/): pairs,
+  // valid share (per mille), time per pair (µs).
+  std::vector<std::pair<std::string, std::int64_t>> stereo;
 };
 
 // boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells

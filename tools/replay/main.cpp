@@ -1,18 +1,26 @@
 // zonemap-replay: maps a recorded or generated flight and writes DIR/stats.json,
 // DIR/boxes.csv, DIR/height.png, DIR/occupied.ply and DIR/run.mcap (usage below).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "hal/os/realtime.hpp"
 #include "tools/replay/replay_run.hpp"
+#ifdef ZONEMAP_HAVE_STEREO
+#include "tools/stereo/asl_stereo.hpp"
+#endif
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: zonemap-replay SEQUENCE --config FILE --out DIR [options]\n"
     "  SEQUENCE        a replay directory (FORMATS.md 1: depth.txt, depth/, camera.yaml, poses)\n"
+    "                  or an ASL stereo recording (EuRoC MAV: SEQUENCE/mav0/cam0, cam1, ground\n"
+    "                  truth), matched on the host into DIR/sequence first (zonemap-stereo)\n"
     "  --config FILE   the mapping configuration (e.g. config/paper-flight2.yaml)\n"
     "  --out DIR       where stats.json, boxes.csv, height.png, occupied.ply and run.mcap go\n"
     "  --camera FILE   camera.yaml to use instead of SEQUENCE/camera.yaml\n"
@@ -24,6 +32,48 @@ constexpr const char* kUsage =
     "  --rate HZ       pace the frames like a camera at HZ (implies --pipeline)\n"
     "  --mlock         lock the process's memory (needs CAP_IPC_LOCK)\n"
     "  --help          this text\n";
+
+// An ASL stereo recording becomes a section-1 sequence in OUT/sequence first (the
+// host does the FPGA's matching); the replay then maps that.
+bool stereo_if_asl(zonemap::tools::ReplayOptions* options, const std::string& out_dir,
+                   std::vector<std::pair<std::string, std::int64_t>>* figures) {
+  const bool asl = std::filesystem::exists(options->sequence_dir + "/mav0/cam0/data.csv");
+  if (!asl) return true;
+#ifdef ZONEMAP_HAVE_STEREO
+  zonemap::stereo::StereoReport report;
+  std::string error;
+  const std::string converted = out_dir + "/sequence";
+  if (!zonemap::stereo::convert_asl(options->sequence_dir, converted, {}, &report, &error)) {
+    std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
+    return false;
+  }
+  if (!options->quiet) {
+    std::fprintf(stderr,
+                 "zonemap-replay: ASL recording: %d pairs matched (SGBM, f %.1f px, b %.4f m, "
+                 "%.1f%% valid, %.1f ms a pair) -> %s\n",
+                 report.written, report.focal_px, report.baseline_m,
+                 100 * report.valid_share_median, report.ms_per_pair_median, converted.c_str());
+  }
+  options->sequence_dir = converted;
+  *figures = {{"pairs", report.pairs},
+              {"written", report.written},
+              {"cam0_without_cam1", report.cam0_without_cam1},
+              {"cam1_without_cam0", report.cam1_without_cam0},
+              {"unreadable", report.unreadable},
+              {"valid_per_mille_median", std::lround(1000 * report.valid_share_median)},
+              {"us_per_pair_median", std::lround(1000 * report.ms_per_pair_median)}};
+  return true;
+#else
+  (void)out_dir;
+  (void)figures;
+  std::fprintf(stderr,
+               "zonemap-replay: %s is an ASL stereo recording, and this build has no OpenCV to "
+               "match it (install libopencv-calib3d-dev and rebuild, or convert it with "
+               "zonemap-stereo where OpenCV is)\n",
+               options->sequence_dir.c_str());
+  return false;
+#endif
+}
 
 }  // namespace
 
@@ -102,6 +152,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   options.progress = !options.quiet;
+  std::vector<std::pair<std::string, std::int64_t>> stereo_figures;
+  if (!stereo_if_asl(&options, out_dir, &stereo_figures)) return 1;
   if (record) {
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);  // the recording starts with the run
@@ -113,6 +165,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return 1;
   }
+  run.set_stereo_figures(stereo_figures);
   if (pipelined) {
     auto options_from_config = zonemap::runtime::PipelineOptions::from(run.config().runtime);
     options_from_config.lossless = pipeline.lossless;
@@ -131,13 +184,14 @@ int main(int argc, char** argv) {
       "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld, dropped %lld; frame ms "
       "p50 %.2f p99 %.2f "
       "max %.2f; zones allocated %lld; reserved %.1f MiB; heap allocations after init %lld\n"
-      "outputs: %s/stats.json %s/boxes.csv %s/height.png %s/occupied.ply%s\n",
+      "outputs: %s/stats.json %s/boxes.csv %s/height.png %s/occupied.ply %s/report.html%s\n",
       static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
       static_cast<long long>(s.frames_skipped_no_pose), static_cast<long long>(s.frames_rejected),
       static_cast<long long>(s.dropped_mapper_behind + s.dropped_pool_full), s.frame_ms_p50,
       s.frame_ms_p99, s.frame_ms_max, static_cast<long long>(s.zones_allocated),
       static_cast<double>(s.static_memory_bytes) / 1048576.0,
       static_cast<long long>(s.heap_allocations_after_init), out_dir.c_str(), out_dir.c_str(),
-      out_dir.c_str(), out_dir.c_str(), record ? (" " + out_dir + "/run.mcap").c_str() : "");
+      out_dir.c_str(), out_dir.c_str(), out_dir.c_str(),
+      record ? (" " + out_dir + "/run.mcap").c_str() : "");
   return 0;
 }

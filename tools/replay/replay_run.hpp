@@ -54,6 +54,10 @@ class ReplayRun : private runtime::MappingHooks {
   bool write_outputs(const std::string& out_dir, std::string* error);
 
   const hal::RunStats& stats() const { return stats_; }
+  // Figures of a step before the run (the host stereo of an ASL recording).
+  void set_stereo_figures(std::vector<std::pair<std::string, std::int64_t>> figures) {
+    stats_.stereo = std::move(figures);
+  }
   Mapper& mapper() { return *mapper_; }
   const hal::ReplaySequence& sequence() const { return sequence_; }
   const MapConfig& config() const { return config_; }

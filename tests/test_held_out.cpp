@@ -7,6 +7,7 @@
 // ../shared/data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -31,6 +32,8 @@ struct Consistency {
   // (c) the map's depth along held-out pixels: the first occupied cell along the
   // ray within two cells of the measured depth (not in front, not missing).
   double depth_agrees = 0.0;
+  double hit_offset_cells_median = 0.0;  // first occupied cell minus measured depth, cells
+  std::int64_t no_hit = 0;               // rays that meet no occupied cell up to the surface
   std::int64_t surface_points = 0, map_cells_seen = 0, phantoms = 0;
   std::int64_t frames_mapped = 0, frames_held_out = 0;
 };
@@ -78,20 +81,21 @@ bool occupied_near(Mapper& mapper, const CellIndex& c, int r) {
 
 // `held_out_error` moves the held-out frames' poses (the identity: none): the
 // negative control, which the check must fail.
-// Walks pixel (u, v)'s ray through the map in half-cell steps from d_min: does the
-// first occupied cell lie within `tolerance_m` of the measured depth z?
-bool first_hit_agrees(Mapper& mapper, const Eigen::Isometry3d& pose, const CameraModel& cam, int u,
-                      int v, double z, double d_min, double tolerance_m) {
+// Walks pixel (u, v)'s ray through the map in half-cell steps from d_min: the
+// depth of the first occupied cell minus the measured depth z, or NaN when there
+// is none up to z + tolerance_m.
+double first_hit_offset(Mapper& mapper, const Eigen::Isometry3d& pose, const CameraModel& cam,
+                        int u, int v, double z, double d_min, double tolerance_m) {
   const Eigen::Vector3d ray((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
   const double step = tolerance_m / 4;  // half a cell for a two-cell tolerance
   for (double d = d_min; d <= z + tolerance_m; d += step) {
     FusedCell value = 0;
     if (mapper.zones().value_at(mapper.cell_of(pose * (ray * d)), &value) &&
         value > mapper.occupied_threshold()) {
-      return d >= z - tolerance_m;
+      return d - z;
     }
   }
-  return false;
+  return NAN;
 }
 
 Consistency held_out_consistency(const std::string& sequence, const std::string& config, int every,
@@ -121,6 +125,7 @@ Consistency held_out_consistency(const std::string& sequence, const std::string&
   const double tolerance_m = radius_cells * map.cell_size_m;
   std::int64_t near_map = 0, consistent = 0;
   double depth_agrees = 0;
+  std::vector<double> offsets_cells;
   std::unordered_set<std::uint64_t> measured_cells;  // every held-out measurement's cell
   std::unordered_set<std::uint64_t> looked_at;       // occupied cells a held-out frame sees
   hal::CameraFrame frame = seq.make_frame();
@@ -148,7 +153,14 @@ Consistency held_out_consistency(const std::string& sequence, const std::string&
         if (u % 4 != 0 || v % 4 != 0) continue;
         ++result.surface_points;
         near_map += occupied_near(mapper, cell, radius_cells);
-        depth_agrees += first_hit_agrees(mapper, pose, cam, u, v, z, map.d_min_m, tolerance_m);
+        const double offset =
+            first_hit_offset(mapper, pose, cam, u, v, z, map.d_min_m, tolerance_m);
+        if (std::isnan(offset)) {
+          ++result.no_hit;
+        } else {
+          depth_agrees += std::abs(offset) <= tolerance_m;
+          offsets_cells.push_back(offset / map.cell_size_m);
+        }
       }
     // (b) the occupied cells this frame looks at: in range, in the image where it
     // measured something, and not behind what it measured there.
@@ -184,6 +196,11 @@ Consistency held_out_consistency(const std::string& sequence, const std::string&
   if (result.surface_points > 0) {
     result.depth_agrees = depth_agrees / static_cast<double>(result.surface_points);
   }
+  if (!offsets_cells.empty()) {
+    std::nth_element(offsets_cells.begin(), offsets_cells.begin() + offsets_cells.size() / 2,
+                     offsets_cells.end());
+    result.hit_offset_cells_median = offsets_cells[offsets_cells.size() / 2];
+  }
   if (result.map_cells_seen > 0) {
     result.map_near_surface =
         static_cast<double>(consistent) / static_cast<double>(result.map_cells_seen);
@@ -195,11 +212,12 @@ void print(const char* what, const Consistency& c) {
   std::printf(
       "%s: %lld frames mapped, %lld held out; held-out measurements near an occupied cell "
       "%.1f%% of %lld; occupied cells in view near a held-out measurement %.1f%% of %lld (%lld "
-      "not); map depth along held-out pixels within 2 cells of the measured %.1f%%\n",
+      "not); map depth along held-out pixels within 2 cells of the measured %.1f%% (first hit "
+      "%+.1f cells from it, median; %lld rays hit nothing)\n",
       what, static_cast<long long>(c.frames_mapped), static_cast<long long>(c.frames_held_out),
       100 * c.surface_near_map, static_cast<long long>(c.surface_points), 100 * c.map_near_surface,
       static_cast<long long>(c.map_cells_seen), static_cast<long long>(c.phantoms),
-      100 * c.depth_agrees);
+      100 * c.depth_agrees, c.hit_offset_cells_median, static_cast<long long>(c.no_hit));
 }
 
 const std::string kData = std::string(ZONEMAP_SHARED_DATA_DIR);

@@ -27,7 +27,12 @@ const flags = [
   "--virtual-time-budget=10000",
 ];
 const run = (extra) =>
-  execFileSync(chromium, [...flags, ...extra, page], { encoding: "utf8", stdio: ["ignore", "pipe", "ignore"], timeout: 120000 });
+  execFileSync(chromium, [...flags, ...extra, page], {
+    encoding: "utf8",
+    stdio: ["ignore", "pipe", "ignore"],
+    timeout: 120000,
+    maxBuffer: 1 << 28, // the page holds every box and cell: --dump-dom is big
+  });
 
 const failures = [];
 const check = (ok, what) => {

@@ -157,6 +157,10 @@ std::string VehicleDaemon::describe() const {
       << mib(pipeline_->reserved_bytes()) << " MiB pipeline; in all "
       << mib(mapper_->reserved_bytes() + features_->reserved_bytes() + pipeline_->reserved_bytes())
       << " MiB\n";
+  if (recorder_ != nullptr) {
+    out << "zonemap: recording to " << config_.record_path << " (its own thread; "
+        << mib(recorder_->reserved_bytes()) << " MiB of slots, outside the mapping budget)\n";
+  }
   return out.str();
 }
 

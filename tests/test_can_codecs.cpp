@@ -398,7 +398,7 @@ TEST(ObstacleCan, EncodeThenDecodeHoldsEveryBoxNearestFirstWithinBudget) {
   std::vector<std::uint32_t> order(boxes.size());
   std::vector<CanFrame> frames(encoder.frames_per_update());
   const std::size_t n =
-      encoder.encode(boxes.data(), boxes.size(), vehicle, 1.0, order.data(), frames.data());
+      encoder.encode(boxes.data(), boxes.size(), vehicle, false, 1.0, order.data(), frames.data());
   ASSERT_EQ(n, 42u);
   ObstacleCanDecoder decoder;
   bool complete = false;
@@ -407,6 +407,7 @@ TEST(ObstacleCan, EncodeThenDecodeHoldsEveryBoxNearestFirstWithinBudget) {
   EXPECT_EQ(decoder.boxes().size(), 20u);
   EXPECT_EQ(decoder.total_in_map(), 36);
   EXPECT_TRUE(decoder.flags() & kObstacleUpdateTruncated);
+  EXPECT_TRUE(decoder.flags() & kObstacleWorldZDown);  // encoded with world_z_up false
   EXPECT_EQ(encoder.counters().boxes_over_budget, 16);
   // Sent boxes hold the originals (rounded outwards, < 0.1 m) and are the nearest.
   double farthest_sent = 0.0;

@@ -56,8 +56,8 @@ ObstacleCanEncoder::ObstacleCanEncoder(const ObstacleCanConfig& config) : config
 }
 
 std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t count,
-                                       const Eigen::Vector3d& vehicle, double time_s,
-                                       std::uint32_t* order, CanFrame* out) {
+                                       const Eigen::Vector3d& vehicle, bool world_z_up,
+                                       double time_s, std::uint32_t* order, CanFrame* out) {
   ++generation_;
   ++counters_.updates;
   std::size_t eligible = 0;
@@ -70,7 +70,7 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
   const Eigen::Vector2d anchor(std::round(vehicle.x() / 100.0) * 100.0,
                                std::round(vehicle.y() / 100.0) * 100.0);
   const std::size_t room = (frames_per_update_ - 2) / 2;
-  std::uint8_t flags = 0;
+  std::uint8_t flags = world_z_up ? 0 : kObstacleWorldZDown;
   if (eligible > room) {
     // Nearest first: only the `room` nearest need ordering.
     std::partial_sort(order, order + room, order + eligible, [&](std::uint32_t a, std::uint32_t b) {

@@ -5,7 +5,8 @@
 // relative to an anchor point (multiples of 100 m, in BEGIN) in the map's world
 // frame, so 16-bit fields reach 3.2 km around the anchor anywhere on a flight.
 // When the bus budget is short the nearest boxes go first; END says how many
-// boxes the map held and whether the update was cut short.
+// boxes the map held, whether the update was cut short and which way the world's
+// z axis points.
 #pragma once
 
 #include <cstddef>
@@ -30,6 +31,9 @@ struct ObstacleCanConfig {
 
 inline constexpr std::uint8_t kObstacleUpdateTruncated = 1u << 0;   // budget: nearest only
 inline constexpr std::uint8_t kObstacleUpdateOutOfRange = 1u << 1;  // some beyond 3.2 km
+// The boxes' world frame, said in every update: set = z down (NED), clear = z up.
+// Boxes are world-frame, so no camera mount enters them.
+inline constexpr std::uint8_t kObstacleWorldZDown = 1u << 2;
 
 std::span<const MessageSpec> obstacle_messages();
 
@@ -51,7 +55,7 @@ class ObstacleCanEncoder {
   // nearest to `vehicle` first. `order` is scratch room for `count` indices
   // (reserved by the caller: no allocation). Returns the number of frames.
   std::size_t encode(const ObstacleBox* boxes, std::size_t count, const Eigen::Vector3d& vehicle,
-                     double time_s, std::uint32_t* order, CanFrame* out);
+                     bool world_z_up, double time_s, std::uint32_t* order, CanFrame* out);
   const ObstacleCanCounters& counters() const { return counters_; }
 
  private:

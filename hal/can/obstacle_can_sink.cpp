@@ -21,8 +21,9 @@ void CanObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (now_s - last_s_ < 1.0 / config_.rate_hz) return;
   last_s_ = now_s;
   const std::size_t count = std::min(update.count, order_.size());
-  const std::size_t n = encoder_.encode(update.boxes, count, update.world_T_body.translation(),
-                                        update.time_s, order_.data(), frames_.data());
+  const std::size_t n =
+      encoder_.encode(update.boxes, count, update.world_T_body.translation(), update.world_z_up,
+                      update.time_s, order_.data(), frames_.data());
   for (std::size_t i = 0; i < n; ++i) {
     if (transport_->send(frames_[i], now_s) != CanIo::kOk) {
       ++cut_short_;  // the rest of this update is not sent; the next one starts afresh

@@ -21,7 +21,6 @@ void describe(char* out, std::size_t size, const char* what, int err, const char
   std::snprintf(out, size, "%s: %s (%s)", what, std::strerror(err), interface);
 }
 
-
 double seconds(const timespec& ts) {
   return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
 }

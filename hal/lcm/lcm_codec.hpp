@@ -11,6 +11,7 @@
 #include "zonemap/feature_map.hpp"
 #include "zonemap/ins_gate.hpp"
 #include "zonemap/obstacle_distance.hpp"
+#include "zonemap_lcm/camera_mount_t.hpp"
 #include "zonemap_lcm/health_t.hpp"
 #include "zonemap_lcm/ins_state_t.hpp"
 #include "zonemap_lcm/obstacle_distance_t.hpp"

@@ -14,12 +14,19 @@ LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config)
   buffer_.resize(
       static_cast<std::size_t>(std::max(health_.getEncodedSize(), distance_.getEncodedSize())));
   for (auto& name : health_.counter_names) name.clear();  // keeps the capacity
+  const Eigen::Quaterniond q(config.body_T_camera.linear());
+  mount_.body_frame = 12;  // MAV_FRAME_BODY_FRD
+  mount_.configured = config.mount_configured;
+  const double qv[4] = {q.w(), q.x(), q.y(), q.z()};
+  for (int i = 0; i < 4; ++i) mount_.body_q_camera[i] = qv[i];
+  for (int i = 0; i < 3; ++i) mount_.body_t_camera[i] = config.body_T_camera.translation()[i];
 }
 
 void LcmObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (now_s - last_s_ < 1.0 / config_.rate_hz) return;
   last_s_ = now_s;
   const auto utime = static_cast<std::int64_t>(std::llround(update.time_s * 1e6));
+  world_z_up_ = update.world_z_up;
   map_.fill(utime, update.world_T_body.translation(), update.world_z_up, update.boxes, update.count,
             update.rects, update.rect_offsets, update.rect_counts);
   const std::uint8_t* bytes = nullptr;
@@ -76,6 +83,17 @@ void LcmObstacleSink::publish_health(const hal::HealthSnapshot& h, double now_s)
     return;
   }
   publisher_.publish(config_.health_channel.c_str(), buffer_.data(), static_cast<std::size_t>(n),
+                     now_s);
+  // The frames and the mount, beside the health: a consumer can tell a wrong mount.
+  mount_.utime = m.utime;
+  mount_.world_frame =
+      world_z_up_ ? zonemap_lcm::ins_state_t::FRAME_Z_UP : zonemap_lcm::ins_state_t::FRAME_NED;
+  const int k = mount_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (k <= 0) {
+    ++encode_failures_;
+    return;
+  }
+  publisher_.publish(config_.mount_channel.c_str(), buffer_.data(), static_cast<std::size_t>(k),
                      now_s);
 }
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/output/obstacle_sink.hpp"
@@ -19,10 +21,14 @@ struct LcmOutputConfig {
   std::string map_channel = "OBSTACLE_MAP";
   std::string distance_channel = "OBSTACLE_DIST";
   std::string health_channel = "ZONEMAP_HEALTH";
+  std::string mount_channel = "ZONEMAP_MOUNT";  // camera_mount_t, with every health message
   double rate_hz = 10.0;
   std::size_t max_boxes = 512;
   std::size_t max_rects_per_box = 64;
   SectorConfig sectors;
+  // The mount body-frame outputs follow (the daemon sets it from camera.yaml).
+  Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();
+  bool mount_configured = false;
 };
 
 class LcmObstacleSink final : public hal::ObstacleSink {
@@ -40,6 +46,8 @@ class LcmObstacleSink final : public hal::ObstacleSink {
   ObstacleMapMessage map_;
   zonemap_lcm::obstacle_distance_t distance_;
   zonemap_lcm::health_t health_;
+  zonemap_lcm::camera_mount_t mount_;
+  bool world_z_up_ = true;            // of the last update
   std::vector<std::uint8_t> buffer_;  // distance and health messages
   double last_s_ = -1e300;
   std::int64_t encode_failures_ = 0;

@@ -20,6 +20,9 @@
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/os/allocation_counter.hpp"
+#include "test_support.hpp"
+#include "tools/eval/evaluate.hpp"
+#include "tools/replay/replay_run.hpp"
 
 extern char** environ;
 
@@ -228,5 +231,88 @@ TEST(LcmMulticast, ObstacleSinkPublishesMapDistancesAndHealthWithoutAllocating) 
   sink.report(&report);
   ASSERT_GE(report.named, 1);
   EXPECT_EQ(std::string(report.names[0]), "lcm_out_published");
-  EXPECT_EQ(report.values[0], 51 * 3);  // map + distances + health per round
+  EXPECT_EQ(report.values[0], 51 * 4);  // map + distances + health + mount per round
+}
+
+// One obstacle's position end to end on LCM: a generated posts flight mapped, its
+// boxes published by the obstacle sink, recorded by lcm-logger (LCM's own tool),
+// decoded with lcm-gen's decoder: each post of the ground truth inside a box, and
+// the frames and the mount said on ZONEMAP_MOUNT as configured.
+TEST(LcmMulticast, LoggedObstacleMapHoldsEachPostWhereItStandsAndSaysItsFrames) {
+  zonemap::testing::TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string config_path =
+      zonemap::testing::write_test_scenario("posts-through", sequence, 4.0, 4);
+  ASSERT_FALSE(config_path.empty());
+  tools::ReplayRun run;
+  tools::ReplayOptions options;
+  options.sequence_dir = sequence;
+  options.config_path = config_path;
+  options.quiet = true;
+  std::string error;
+  ASSERT_TRUE(run.open(options, &error)) << error;
+  run.run();
+  std::vector<ObstacleBox> boxes = run.boxes(false);
+  ASSERT_FALSE(boxes.empty());
+
+  const std::string path = dir / "flight.lcmlog";
+  const pid_t logger = start(
+      {"lcm-logger", "-q", "-f", "--flush-interval=10", std::string("--lcm-url=") + kUrl, path});
+  ASSERT_GT(logger, 0);
+  LcmOutputConfig config;
+  config.url = kUrl;
+  config.rate_hz = 1000;
+  config.body_T_camera = run.sequence().camera().body_T_camera;
+  config.mount_configured = run.sequence().camera().mount_configured;
+  LcmObstacleSink sink(config);
+  hal::ObstacleUpdate update;
+  update.boxes = boxes.data();
+  update.count = boxes.size();
+  update.world_z_up = run.sequence().camera().world_z_up;
+  update.world_T_body.translation() = run.trajectory().back();
+  const double deadline = now_s() + 20.0;
+  double t = 0.0;
+  // Until the logger has both (it may start listening after the first rounds).
+  while (read_log(path, "OBSTACLE_MAP").empty() || read_log(path, "ZONEMAP_MOUNT").empty()) {
+    ASSERT_LT(now_s(), deadline) << "lcm-logger never logged the map and the mount";
+    t += 0.01;
+    if (sink.ready()) {
+      sink.publish(update, t);
+      sink.publish_health(hal::HealthSnapshot{}, t);
+    }
+    usleep(20'000);  // paces the rounds (not a synchronisation: the loop checks the log)
+  }
+  kill(logger, SIGINT);
+  finish(logger);
+
+  const auto maps = read_log(path, "OBSTACLE_MAP");
+  zonemap_lcm::obstacle_map_t map;
+  ASSERT_GT(map.decode(maps.back().data(), 0, static_cast<int>(maps.back().size())), 0);
+  EXPECT_EQ(map.frame, zonemap_lcm::ins_state_t::FRAME_Z_UP);
+  std::vector<tools::TruthObject> objects;
+  ASSERT_TRUE(tools::load_objects_yaml(sequence + "/objects.yaml", &objects, &error)) << error;
+  ASSERT_EQ(objects.size(), 2u);
+  for (const tools::TruthObject& post : objects) {
+    const double middle[3] = {post.centre.x(), post.centre.y(),
+                              0.5 * (post.min.z() + post.max.z())};
+    bool inside = false;
+    for (const zonemap_lcm::obstacle_box_t& b : map.boxes) {
+      bool in = true;
+      for (int k = 0; k < 3; ++k)
+        in &= middle[k] >= b.min[k] - 1e-3 && middle[k] <= b.max[k] + 1e-3;
+      inside |= in;
+    }
+    EXPECT_TRUE(inside) << post.name << " is in no box received over LCM";
+  }
+  const auto mounts = read_log(path, "ZONEMAP_MOUNT");
+  zonemap_lcm::camera_mount_t mount;
+  ASSERT_GT(mount.decode(mounts.back().data(), 0, static_cast<int>(mounts.back().size())), 0);
+  EXPECT_EQ(mount.body_frame, 12);
+  EXPECT_EQ(mount.world_frame, zonemap_lcm::ins_state_t::FRAME_Z_UP);
+  EXPECT_EQ(mount.configured, config.mount_configured);
+  const Eigen::Quaterniond q(config.body_T_camera.linear());
+  EXPECT_NEAR(mount.body_q_camera[0], q.w(), 1e-9);
+  EXPECT_NEAR(mount.body_q_camera[1], q.x(), 1e-9);
+  EXPECT_NEAR(mount.body_q_camera[2], q.y(), 1e-9);
+  EXPECT_NEAR(mount.body_q_camera[3], q.z(), 1e-9);
 }

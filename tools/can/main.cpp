@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
     } else if (profile == "obstacles") {
       write_dbc(std::cout,
                 "zonemap obstacle boxes: BEGIN, BOX_MIN+BOX_MAX per box (nearest first), END "
-                "with the same GENERATION. Corners in the map frame relative to ANCHOR (dm).",
+                "with the same GENERATION. Corners in the map's world frame relative to ANCHOR "
+                "(dm); END FLAGS bit 0 cut short, bit 1 some out of range, bit 2 world z down "
+                "(NED; clear: z up). No camera mount enters the boxes.",
                 "ZONEMAP", obstacle_messages());
     } else {
       return usage();

@@ -112,7 +112,12 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
     sinks_.push_back(std::make_unique<can::CanObstacleSink>(config.can_output_interface,
                                                             config.can_obstacles, max_boxes));
   }
-  if (config.lcm_output) sinks_.push_back(std::make_unique<lcm_link::LcmObstacleSink>(config.lcm));
+  if (config.lcm_output) {
+    lcm_link::LcmOutputConfig lcm = config.lcm;
+    lcm.body_T_camera = camera_.body_T_camera;  // said on ZONEMAP_MOUNT
+    lcm.mount_configured = camera_.mount_configured;
+    sinks_.push_back(std::make_unique<lcm_link::LcmObstacleSink>(lcm));
+  }
   if (config.mavlink_output) {
     auto mavlink = std::make_unique<mavlink::MavlinkUdpSink>(config.mavlink);
     if (!mavlink->open(error)) return false;

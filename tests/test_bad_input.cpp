@@ -11,6 +11,7 @@
 #include "hal/replay/png_io.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/replay/yaml_config.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -248,10 +249,7 @@ TEST(BadSequence, PerFrameFaultsAreCountedNotFatal) {
   write_text(seq + "/groundtruth.txt", poses);
 
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = seq;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(seq, config);
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();
@@ -283,10 +281,7 @@ TEST(BadSequence, MissingFilesAreErrorsNamingTheFile) {
   const std::string seq = dir / "seq";
   const std::string config = testing::write_test_scenario("posts-through", seq, 2.0, 8, 3);
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = seq;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(seq, config);
   std::string error;
 
   std::filesystem::rename(seq + "/groundtruth.txt", seq + "/gt.bak");

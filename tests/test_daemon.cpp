@@ -21,6 +21,7 @@
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
 #include "hal/os/realtime.hpp"
 #include "hal/output/run_outputs.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/daemon/vehicle_config.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -206,10 +207,7 @@ TEST(Daemon, ReplayWithLcmLogPosesGivesTheReplaysBoxesAndMavlinkOut) {
 
   // The single-threaded replay of the same flight (poses from groundtruth.txt).
   tools::ReplayRun replay;
-  tools::ReplayOptions options;
-  options.sequence_dir = f.sequence;
-  options.config_path = f.config;
-  options.quiet = true;
+  tools::ReplayOptions options = zonemap::testing::quiet_replay(f.sequence, f.config);
   std::string error;
   ASSERT_TRUE(replay.open(options, &error)) << error;
   replay.run();
@@ -267,10 +265,7 @@ TEST(ReplaySequence, PosesFromInsLcmlogWhenThereIsNoGroundTruthMapTheSame) {
   make_flight(&f, 4.0, 24);
   auto boxes_of = [&](const std::string& sequence) {
     tools::ReplayRun run;
-    tools::ReplayOptions options;
-    options.sequence_dir = sequence;
-    options.config_path = f.config;
-    options.quiet = true;
+    tools::ReplayOptions options = zonemap::testing::quiet_replay(sequence, f.config);
     std::string error;
     EXPECT_TRUE(run.open(options, &error)) << error;
     run.run();

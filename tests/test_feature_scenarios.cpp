@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -26,10 +27,7 @@ ScenarioRun map_and_evaluate(const std::string& name, double rate, int pixel_ste
   const std::string sequence = dir / "seq";
   const std::string config = testing::write_test_scenario(name, sequence, rate, pixel_step);
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   std::string error;
   if (!run.open(options, &error)) {
     ADD_FAILURE() << error;
@@ -100,10 +98,7 @@ TEST(FeatureScenarios, OutAndBackKeepsEveryObstacle) {
   const std::string sequence = dir / "seq";
   const std::string config = testing::write_test_scenario("out-and-back", sequence, 2.5, 4);
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   const std::size_t half = run.sequence().frame_count() / 2;

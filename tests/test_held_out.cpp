@@ -15,6 +15,7 @@
 #include <string>
 #include <unordered_set>
 
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #ifdef ZONEMAP_HAVE_STEREO
@@ -103,10 +104,8 @@ Consistency held_out_consistency(const std::string& sequence, const std::string&
   Consistency result;
   testing::TempDir dir;
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = without_held_out(sequence, dir / "mapped", every);
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options =
+      testing::quiet_replay(without_held_out(sequence, dir / "mapped", every), config);
   std::string error;
   EXPECT_TRUE(run.open(options, &error)) << error;
   run.run();

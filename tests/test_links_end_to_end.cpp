@@ -12,6 +12,7 @@
 
 #include "hal/can/dbc.hpp"
 #include "hal/can/obstacle_can.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -78,10 +79,7 @@ TEST(CanEndToEnd, EachPostOfAFlightIsInsideABoxDecodedFromTheDbcLayout) {
   const std::string config = testing::write_test_scenario("posts-through", sequence, 4.0, 4);
   ASSERT_FALSE(config.empty());
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();

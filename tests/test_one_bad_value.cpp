@@ -15,6 +15,7 @@
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/png_io.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #include "zonemap/ins_gate.hpp"
@@ -157,10 +158,7 @@ struct RunResult {
 
 RunResult replay(const std::string& sequence, const std::string& config) {
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   std::string error;
   EXPECT_TRUE(run.open(options, &error)) << error;
   run.run();

@@ -21,6 +21,7 @@
 #include "hal/os/doorbell.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "hal/runtime/pipeline.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #include "tools/sim/scene.hpp"
@@ -224,10 +225,7 @@ void expect_threaded_equals_single(const char* scenario, double rate_hz, int fra
   const std::string config =
       test_sequence(dir, scenario, rate_hz, static_cast<std::size_t>(frames));
   ASSERT_FALSE(config.empty());
-  tools::ReplayOptions options;
-  options.sequence_dir = dir / "seq";
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(dir / "seq", config);
   std::string error;
   tools::ReplayRun single;
   ASSERT_TRUE(single.open(options, &error)) << error;
@@ -287,10 +285,7 @@ TEST(Pipeline, ThreadedRunEqualsSingleThreadedRunWithZonesComingBack) {
 TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
   testing::TempDir dir;
   const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);  // zones come and go
-  tools::ReplayOptions options;
-  options.sequence_dir = dir / "seq";
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(dir / "seq", config);
   std::string error;
   tools::ReplayRun run;
   ASSERT_TRUE(run.open(options, &error)) << error;
@@ -335,10 +330,7 @@ TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
   // back on the out-and-back flight and get their stored obstacles.
   testing::TempDir dir;
   const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);
-  tools::ReplayOptions options;
-  options.sequence_dir = dir / "seq";
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(dir / "seq", config);
   std::string error;
   tools::ReplayRun run;
   ASSERT_TRUE(run.open(options, &error)) << error;

@@ -11,6 +11,7 @@
 #include "hal/record/flight_recorder.hpp"
 #include "hal/record/foxglove_json.hpp"
 #include "hal/record/mcap_writer.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -162,10 +163,7 @@ void expect_replay_records(bool pipelined) {
   testing::TempDir dir;
   const std::string sequence = dir / "seq";
   const std::string config = testing::write_test_scenario("posts-around", sequence, 4.0, 4, 60);
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   options.record_path = dir / "run.mcap";
   options.record_depth_every = 2;
   tools::ReplayRun run;

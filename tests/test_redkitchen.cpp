@@ -8,6 +8,7 @@
 #include <unordered_set>
 
 #include "hal/replay/png_io.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -28,10 +29,8 @@ TEST(RedKitchen, RealFramesMapWithoutRejectsAndOccupiedCellsLieOnMeasurements) {
                  << " (../shared/data is not part of the repository)";
   }
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = kSequence;
-  options.config_path = testing::source_path("config/indoor-kinect.yaml");
-  options.quiet = true;
+  tools::ReplayOptions options =
+      testing::quiet_replay(kSequence, testing::source_path("config/indoor-kinect.yaml"));
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();

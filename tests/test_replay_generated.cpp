@@ -12,6 +12,7 @@
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/png_io.hpp"
 #include "hal/replay/yaml_config.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -101,10 +102,7 @@ std::unique_ptr<tools::ReplayRun> replay_and_check(const std::string& scenario_n
 
   auto run_owner = std::make_unique<tools::ReplayRun>();
   tools::ReplayRun& run = *run_owner;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   if (!run.open(options, &error)) {
     ADD_FAILURE() << error;
     return run_owner;
@@ -237,10 +235,7 @@ TEST(ReplayGenerated, HeightProfileShowsBothPostsWhereTheyAre) {
   const std::string sequence = dir / "seq";
   const std::string config = testing::write_test_scenario("posts-around", sequence, 3.0, 4);
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config;
-  options.quiet = true;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();

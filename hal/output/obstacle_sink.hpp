@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -26,6 +27,34 @@ struct ObstacleUpdate {
   // the mapping thread; a sector never seen is sent as unknown, not as free.
   SectorMask sectors_observed{};
   FootprintView footprints() const { return {rects, rect_offsets, rect_counts}; }
+};
+
+// Storage for an update built from the feature map (its merged boxes with their
+// footprints), reserved once; fill() does not allocate.
+struct MergedUpdate {
+  std::vector<ObstacleBox> boxes;
+  std::vector<FootprintRect> rects;
+  std::vector<std::uint32_t> offsets, counts;
+  void reserve(std::size_t max_boxes, std::size_t max_rects) {
+    boxes.resize(max_boxes);
+    rects.resize(max_rects);
+    offsets.resize(max_boxes);
+    counts.resize(max_boxes);
+  }
+  ObstacleUpdate fill(FeatureMap& features, bool include_ground, double time_s,
+                      const Eigen::Isometry3d& world_T_body, bool world_z_up) {
+    FootprintOutput shapes{rects.data(), rects.size(), offsets.data(), counts.data()};
+    ObstacleUpdate update;
+    update.time_s = time_s;
+    update.world_T_body = world_T_body;
+    update.world_z_up = world_z_up;
+    update.count = features.merged(boxes.data(), boxes.size(), include_ground, &shapes);
+    update.boxes = boxes.data();
+    update.rects = rects.data();
+    update.rect_offsets = offsets.data();
+    update.rect_counts = counts.data();
+    return update;
+  }
 };
 
 // Every counter of the run, for the periodic health message and stats.json.

@@ -123,6 +123,19 @@ struct FlightRecorder::Impl {
   bool drain_once();
 };
 
+RecorderConfig recorder_config_for(const CameraModel& camera, std::size_t max_boxes,
+                                   std::size_t max_rects) {
+  RecorderConfig rc;
+  rc.max_boxes = max_boxes;
+  rc.max_rects = max_rects;
+  rc.depth_width = camera.width;
+  rc.depth_height = camera.height;
+  rc.depth_decimation = camera.width > 320 ? 2 : 1;
+  rc.world_z_up = camera.world_z_up;
+  rc.body_T_camera = camera.body_T_camera;
+  return rc;
+}
+
 FlightRecorder::FlightRecorder() : impl_(std::make_unique<Impl>()) {}
 
 FlightRecorder::~FlightRecorder() {

@@ -27,6 +27,7 @@
 #include "hal/os/doorbell.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/mcap_writer.hpp"
+#include "zonemap/camera.hpp"
 #include "zonemap/obstacle_distance.hpp"
 #include "zonemap/spsc_queue.hpp"
 
@@ -48,6 +49,11 @@ struct RecorderConfig {
   SectorConfig sectors;  // as the MAVLink sink draws them
   McapOptions mcap;
 };
+
+// The settings that follow from the camera: image size, depth decimation (every
+// 2nd pixel from 320 wide), the world's up axis and the mount.
+RecorderConfig recorder_config_for(const CameraModel& camera, std::size_t max_boxes,
+                                   std::size_t max_rects);
 
 // What the recorder did, for stats.json "recording".
 struct RecorderCounts {

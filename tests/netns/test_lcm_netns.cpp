@@ -20,6 +20,7 @@
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/os/allocation_counter.hpp"
+#include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -245,10 +246,7 @@ TEST(LcmMulticast, LoggedObstacleMapHoldsEachPostWhereItStandsAndSaysItsFrames) 
       zonemap::testing::write_test_scenario("posts-through", sequence, 4.0, 4);
   ASSERT_FALSE(config_path.empty());
   tools::ReplayRun run;
-  tools::ReplayOptions options;
-  options.sequence_dir = sequence;
-  options.config_path = config_path;
-  options.quiet = true;
+  tools::ReplayOptions options = zonemap::testing::quiet_replay(sequence, config_path);
   std::string error;
   ASSERT_TRUE(run.open(options, &error)) << error;
   run.run();

@@ -188,15 +188,9 @@ void VehicleDaemon::run() {
 // The recording is one more sink (boxes, sectors, health from the output thread);
 // poses and depth come from the mapping thread through frame_mapped().
 bool VehicleDaemon::open_recorder(std::size_t footprint_rects, std::string* error) {
-  record::RecorderConfig rc;
+  record::RecorderConfig rc =
+      record::recorder_config_for(camera_, features_->capacity(), footprint_rects);
   rc.path = config_.record_path;
-  rc.max_boxes = features_->capacity();
-  rc.max_rects = footprint_rects;
-  rc.depth_width = camera_.width;
-  rc.depth_height = camera_.height;
-  rc.depth_decimation = camera_.width > 320 ? 2 : 1;
-  rc.world_z_up = camera_.world_z_up;
-  rc.body_T_camera = camera_.body_T_camera;
   rc.sectors = config_.mavlink.sectors;
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(rc.path).parent_path(), ec);
@@ -220,19 +214,11 @@ void VehicleDaemon::frame_mapped(const hal::CameraFrame& frame, const Eigen::Iso
 // The final scene (every feature, with footprints), then the file's summary.
 void VehicleDaemon::close_recorder() {
   if (recorder_ == nullptr) return;
-  std::vector<ObstacleBox> boxes(features_->capacity());
-  std::vector<FootprintRect> rects(1 << 16);
-  std::vector<std::uint32_t> offsets(boxes.size()), counts(boxes.size());
-  FootprintOutput shapes{rects.data(), rects.size(), offsets.data(), counts.data()};
-  hal::ObstacleUpdate update;
-  update.time_s = last_time_s_;
-  update.world_T_body = last_world_T_camera_ * camera_.body_T_camera.inverse();
-  update.world_z_up = camera_.world_z_up;
-  update.count = features_->merged(boxes.data(), boxes.size(), true, &shapes);
-  update.boxes = boxes.data();
-  update.rects = rects.data();
-  update.rect_offsets = offsets.data();
-  update.rect_counts = counts.data();
+  hal::MergedUpdate final_scene;
+  final_scene.reserve(features_->capacity(), 1 << 16);
+  const hal::ObstacleUpdate update =
+      final_scene.fill(*features_, true, last_time_s_,
+                       last_world_T_camera_ * camera_.body_T_camera.inverse(), camera_.world_z_up);
   recorder_->record_final_boxes(update);
   // The grid is the mapping thread's during the flight: its cells go in once, now.
   recorder_->record_occupied(last_time_s_, *mapper_);

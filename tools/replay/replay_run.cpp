@@ -140,24 +140,13 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
 
 // The recording's own thread and slots; the replay loop only copies into them.
 bool ReplayRun::open_recorder(std::string* error) {
-  const CameraModel& cam = sequence_.camera();
-  record::RecorderConfig rc;
+  record::RecorderConfig rc =
+      record::recorder_config_for(sequence_.camera(), features_->capacity(), kRecordedRects);
   rc.path = options_.record_path;
-  rc.max_boxes = features_->capacity();
-  rc.max_rects = kRecordedRects;
-  rc.depth_width = cam.width;
-  rc.depth_height = cam.height;
-  rc.depth_decimation = cam.width > 320 ? 2 : 1;
-  rc.world_z_up = cam.world_z_up;
-  rc.body_T_camera = cam.body_T_camera;
   rc.sectors.max_distance_m = std::min(rc.sectors.max_distance_m, config_.d_max_m);
-  update_boxes_.resize(rc.max_boxes);
-  update_rects_.resize(rc.max_rects);
-  update_offsets_.resize(rc.max_boxes);
-  update_counts_.resize(rc.max_boxes);
+  update_.reserve(rc.max_boxes, rc.max_rects);
   recorder_ = std::make_unique<record::FlightRecorder>();
-  if (!recorder_->open(rc, error)) return false;
-  return true;
+  return recorder_->open(rc, error);
 }
 
 void ReplayRun::record_frame(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) {
@@ -188,20 +177,9 @@ void ReplayRun::frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometr
 // The merged boxes (ground too, as boxes.csv has them) with their footprints and
 // the sectors the map has seen around the vehicle.
 void ReplayRun::record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final) {
-  FootprintOutput shapes;
-  shapes.rects = update_rects_.data();
-  shapes.capacity = update_rects_.size();
-  shapes.offsets = update_offsets_.data();
-  shapes.counts = update_counts_.data();
-  hal::ObstacleUpdate update;
-  update.time_s = time_s;
-  update.world_T_body = world_T_camera * sequence_.camera().body_T_camera.inverse();
-  update.world_z_up = sequence_.camera().world_z_up;
-  update.count = features_->merged(update_boxes_.data(), update_boxes_.size(), true, &shapes);
-  update.boxes = update_boxes_.data();
-  update.rects = update_rects_.data();
-  update.rect_offsets = update_offsets_.data();
-  update.rect_counts = update_counts_.data();
+  const CameraModel& cam = sequence_.camera();
+  hal::ObstacleUpdate update = update_.fill(
+      *features_, true, time_s, world_T_camera * cam.body_T_camera.inverse(), cam.world_z_up);
   SectorConfig sectors;
   sectors.max_distance_m = std::min(sectors.max_distance_m, config_.d_max_m);
   update.sectors_observed = observed_sectors(mapper_->zones(), config_.cell_size_m,
@@ -523,13 +501,14 @@ bool ReplayRun::write_report(const std::string& out_dir, std::string* error) {
       load_boxes_csv(out_dir + "/boxes.csv", &run_boxes, &eval_error)) {
     in.evaluation_json = to_json(evaluate(objects, run_boxes, config_.cell_size_m));
   }
-  std::vector<FootprintRect> rects(kRecordedRects);
-  std::vector<std::uint32_t> offsets(features_->capacity()), counts(features_->capacity());
-  FootprintOutput shapes{rects.data(), rects.size(), offsets.data(), counts.data()};
-  in.boxes.resize(features_->capacity());
-  in.boxes.resize(features_->merged(in.boxes.data(), in.boxes.size(), true, &shapes));
-  for (std::size_t i = 0; i < in.boxes.size(); ++i) {
-    in.footprints.emplace_back(rects.begin() + offsets[i], rects.begin() + offsets[i] + counts[i]);
+  hal::MergedUpdate merged;
+  merged.reserve(features_->capacity(), kRecordedRects);
+  const hal::ObstacleUpdate all =
+      merged.fill(*features_, true, last_time_s_, Eigen::Isometry3d::Identity(), true);
+  in.boxes.assign(all.boxes, all.boxes + all.count);
+  for (std::size_t i = 0; i < all.count; ++i) {
+    const FootprintRect* first = all.rects + all.rect_offsets[i];
+    in.footprints.emplace_back(first, first + all.rect_counts[i]);
   }
   in.trajectory = trajectory_;
   in.occupied = occupied_sample(kReportOccupiedCells);

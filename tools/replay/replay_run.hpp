@@ -107,9 +107,7 @@ class ReplayRun : private runtime::MappingHooks {
   runtime::PipelineStats pipeline_stats_;
   // The recording (OUT/run.mcap): its buffers and when each channel was last fed.
   std::unique_ptr<record::FlightRecorder> recorder_;
-  std::vector<ObstacleBox> update_boxes_;
-  std::vector<FootprintRect> update_rects_;
-  std::vector<std::uint32_t> update_offsets_, update_counts_;
+  hal::MergedUpdate update_;
   double recorded_occupied_s_ = -INFINITY, recorded_boxes_s_ = -INFINITY;
   double recorded_health_s_ = -INFINITY;
   bool boxes_changed_ = false;

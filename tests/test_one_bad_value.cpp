@@ -12,6 +12,8 @@
 
 #include <lcm/eventlog.h>
 
+#include "hal/can/candump.hpp"
+#include "hal/can/ins_can.hpp"
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/png_io.hpp"
@@ -482,6 +484,127 @@ std::string bad_ins_name(const ::testing::TestParamInfo<BadInsMessage>& param) {
 }
 INSTANTIATE_TEST_SUITE_P(InsLog, OneBadInsMessage, ::testing::ValuesIn(kBadInsMessages),
                          bad_ins_name);
+
+// ---- one bad CAN frame in a flight replayed from its INS candump (ins.candump)
+
+// The same flight in a NED world (z down: the zonemap INS profile speaks NED),
+// as the INS puts it on the bus: four frames a solution, one candump line each.
+std::vector<std::string> candump_lines(const std::vector<InsEvent>& events) {
+  const Eigen::Matrix3d zup_to_ned = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  can::InsCanConfig profile;
+  profile.profile = can::InsCanProfile::kZonemapIns;
+  std::vector<std::string> lines;
+  std::uint8_t sequence = 0;
+  for (const InsEvent& e : events) {
+    zonemap_lcm::ins_state_t m{};
+    EXPECT_GT(m.decode(e.bytes.data(), 0, static_cast<int>(e.bytes.size())), 0);
+    const Eigen::Quaterniond zup(m.orientation[0], m.orientation[1], m.orientation[2],
+                                 m.orientation[3]);
+    can::ZonemapInsSample sample;
+    sample.sequence = sequence++;
+    sample.time_us = static_cast<std::uint64_t>(e.utime);
+    sample.ned_m = zup_to_ned * Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
+    sample.attitude = Eigen::Quaterniond(zup_to_ned * zup.toRotationMatrix()).normalized();
+    can::CanFrame frames[8];
+    const int n =
+        can::encode_zonemap_ins(sample, profile, static_cast<double>(e.utime) * 1e-6, frames);
+    for (int i = 0; i < n; ++i) {
+      char buf[96];
+      const std::size_t len = can::format_candump_line(frames[i], "can0", buf, sizeof buf);
+      lines.emplace_back(buf, len);
+    }
+  }
+  return lines;
+}
+
+void write_lines(const std::vector<std::string>& lines, const std::string& path) {
+  std::ofstream out(path);
+  for (const std::string& line : lines) out << line << "\n";
+}
+
+struct BadCanLine {
+  const char* name;
+  std::function<void(std::vector<std::string>*)> inject;
+  std::int64_t counted;  // refusals it may cause: the record, and the solution it broke
+};
+void PrintTo(const BadCanLine& bad, std::ostream* out) {
+  *out << bad.name;
+}
+
+constexpr std::size_t kBadLine = 4 * kBadEvent + 1;  // the middle of one solution
+
+const BadCanLine kBadCanLines[] = {
+    {"DamagedLine",
+     [](std::vector<std::string>* l) { (*l)[kBadLine] = "(17.5 can0 30#zz damaged"; }, 2},
+    {"TruncatedLine",
+     [](std::vector<std::string>* l) { (*l)[kBadLine].resize((*l)[kBadLine].size() / 2); }, 2},
+    {"UnknownIdFrame",
+     [](std::vector<std::string>* l) {
+       const std::string time = (*l)[kBadLine].substr(0, (*l)[kBadLine].find(')') + 1);
+       l->insert(l->begin() + static_cast<std::ptrdiff_t>(kBadLine),
+                 time + " can0 123#0011223344556677");
+     },
+     0},  // not the INS's: ignored (the decoder counts it), no solution lost
+    {"WrongLength",
+     [](std::vector<std::string>* l) {
+       std::string& line = (*l)[kBadLine];
+       line.resize(line.size() - 4);  // two data bytes short: a DLC the profile refuses
+     },
+     2},
+};
+
+class OneBadCanFrame : public ::testing::TestWithParam<BadCanLine> {};
+
+TEST_P(OneBadCanFrame, CostsAtMostItsSolutionAndTheFlightMapsAsTheCleanOne) {
+  testing::TempDir dir;
+  const std::string clean_seq = dir / "clean", bad_seq = dir / "bad";
+  const std::string config =
+      testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, kFrames);
+  ASSERT_FALSE(config.empty());
+  hal::ReplaySequence truth;
+  std::string error;
+  MapConfig interpolate_between_frames;
+  interpolate_between_frames.pose_max_gap_s = 1.0;
+  ASSERT_TRUE(truth.open(clean_seq, "", interpolate_between_frames, &error)) << error;
+  std::vector<std::string> lines = candump_lines(ins_events(truth));
+  ASSERT_GT(lines.size(), kBadLine + 40);
+  std::filesystem::remove(clean_seq + "/groundtruth.txt");
+  {
+    std::ofstream camera(clean_seq + "/camera.yaml", std::ios::app);
+    camera << "world_z_up: false\n";  // the INS's NED world
+  }
+  std::filesystem::copy(clean_seq, bad_seq, std::filesystem::copy_options::recursive);
+  write_lines(lines, clean_seq + "/ins.candump");
+  GetParam().inject(&lines);
+  write_lines(lines, bad_seq + "/ins.candump");
+  const RunResult clean = replay(clean_seq, config);
+  const RunResult got = replay(bad_seq, config);
+  ASSERT_EQ(clean.stats.frames_mapped, kFrames) << clean.json;
+  ASSERT_FALSE(clean.boxes.empty());
+  EXPECT_EQ(got.stats.frames_mapped, kFrames) << "one CAN frame cost a frame\n" << got.json;
+  // At most the bad line and the one solution it left incomplete, each counted by kind.
+  EXPECT_LE(got.stats.poses_rejected, GetParam().counted) << got.json;
+  std::int64_t by_kind = 0;
+  for (const auto& [kind, count] : got.stats.rejections)
+    by_kind +=
+        kind.rfind("poses_", 0) == 0 && kind != "poses_reanchors" && kind != "poses_clock_steps"
+            ? count
+            : 0;
+  EXPECT_EQ(by_kind, got.stats.poses_rejected) << "a refusal without its kind\n" << got.json;
+  EXPECT_EQ(got.stats.zones_allocated, clean.stats.zones_allocated);
+  ASSERT_EQ(got.boxes.size(), clean.boxes.size());
+  const double cell = clean.stats.cell_size_m;
+  for (std::size_t i = 0; i < got.boxes.size(); ++i) {
+    EXPECT_LE((got.boxes[i].min - clean.boxes[i].min).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+    EXPECT_LE((got.boxes[i].max - clean.boxes[i].max).cwiseAbs().maxCoeff(), cell + 1e-9) << i;
+  }
+}
+
+std::string bad_can_name(const ::testing::TestParamInfo<BadCanLine>& param) {
+  return param.param.name;
+}
+INSTANTIATE_TEST_SUITE_P(InsCandump, OneBadCanFrame, ::testing::ValuesIn(kBadCanLines),
+                         bad_can_name);
 
 }  // namespace
 }  // namespace zonemap

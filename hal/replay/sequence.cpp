@@ -270,6 +270,8 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   }
   const PoseSourceCounters c = source->counters();
   poses_rejected_ += static_cast<int>(c.gate.rejected_total() + c.malformed);
+  pose_counts_.log_malformed = c.malformed;
+  pose_counts_.log_implausible = c.gate.rejected_total();
   if (poses_rejected_ > 0) {
     warnings_.push_back(std::string(source->name()) + ": " + std::to_string(poses_rejected_) +
                         " INS messages refused (malformed or implausible)");

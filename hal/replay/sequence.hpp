@@ -39,6 +39,9 @@ struct ListFilterConfig {
 struct PoseListCounts {
   std::int64_t not_finite = 0, quaternion = 0, time_past = 0, time_repeated = 0, time_future = 0;
   std::int64_t jump = 0, reanchors = 0, clock_steps = 0;
+  // INS logs (ins.lcmlog, ins.candump): undecodable records (a damaged line, a
+  // wrong length, a solution left incomplete by one) and solutions the gate refused.
+  std::int64_t log_malformed = 0, log_implausible = 0;
   std::int64_t refused() const {
     return not_finite + quaternion + time_past + time_repeated + time_future + jump;
   }

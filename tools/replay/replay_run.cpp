@@ -57,7 +57,9 @@ void ReplayRun::count_list_rejections() {
                        {"poses_time_future", p.time_future},
                        {"poses_jump", p.jump},
                        {"poses_reanchors", p.reanchors},
-                       {"poses_clock_steps", p.clock_steps}};
+                       {"poses_clock_steps", p.clock_steps},
+                       {"poses_log_malformed", p.log_malformed},
+                       {"poses_log_implausible", p.log_implausible}};
 }
 
 void ReplayRun::log_rejection(const char* kind, std::int64_t count,

@@ -14,10 +14,13 @@
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "hal/runtime/pipeline.hpp"
+#include "pipeline_support.hpp"
 #include "test_support.hpp"
 
 namespace zonemap {
 namespace {
+
+using testing::Flight;
 
 // A live INS replaying the sequence's poses through the real gate, with faults.
 class ScriptedIns final : public hal::PoseSource {
@@ -73,57 +76,6 @@ class ScriptedCamera final : public hal::FrameSource {
   hal::ReplayFrameSource inner_;
   std::function<hal::FrameRead(std::size_t, hal::CameraFrame*, std::string*)> fault_;
   CameraModel camera_;
-};
-
-struct RecordingHooks : runtime::MappingHooks {
-  std::vector<std::size_t> mapped;  // reserved: the mapping thread must not allocate
-  Mapper* mapper = nullptr;
-  FeatureMap* features = nullptr;
-  void after_frame(std::size_t index, const Eigen::Isometry3d&, const FrameReport&,
-                   double) override {
-    if (mapped.size() < mapped.capacity()) mapped.push_back(index);
-    // Extraction: the pipeline's own thread (the feature map is not ours to touch here).
-  }
-};
-
-struct Flight {
-  testing::TempDir dir;
-  MapConfig config;
-  hal::ReplaySequence sequence;
-  std::unique_ptr<Mapper> mapper;
-  std::unique_ptr<FeatureMap> features;
-  RecordingHooks hooks;
-
-  explicit Flight(std::size_t frames) {
-    const std::string path =
-        testing::write_test_scenario("posts-through", dir / "seq", 4.0, 4, frames);
-    std::string error;
-    EXPECT_TRUE(hal::load_map_config(path, &config, &error)) << error;
-    EXPECT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
-    mapper = std::make_unique<Mapper>(config, sequence.camera());
-    features = std::make_unique<FeatureMap>(config, true);
-    mapper->zones().add_observer(features.get());
-    hooks.mapped.reserve(frames);
-    hooks.mapper = mapper.get();
-    hooks.features = features.get();
-  }
-
-  runtime::PipelineStats run(hal::FrameSource& frames, hal::PoseSource* ins,
-                             std::span<hal::ObstacleSink* const> sinks, bool lossless = true) {
-    runtime::PipelineOptions options;
-    options.lossless = lossless;
-    options.publish_every_frames = 1;
-    options.pose_wait_s = 0.02;
-    runtime::Pipeline pipeline(frames, ins == nullptr ? &sequence.poses() : nullptr, ins, sinks,
-                               *mapper, *features, hooks, options);
-    pipeline.run();
-    return pipeline.stats();
-  }
-  std::vector<ObstacleBox> boxes() {
-    std::vector<ObstacleBox> out(features->capacity());
-    out.resize(features->merged(out.data(), out.size(), true));
-    return out;
-  }
 };
 
 }  // namespace

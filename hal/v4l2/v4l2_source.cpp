@@ -37,34 +37,19 @@ double monotonic_s() {
 
 }  // namespace
 
-BufferVerdict check_buffer(bool error_flag, std::uint32_t bytes_used, std::uint32_t expected_bytes,
-                           std::uint32_t sequence, bool has_last, std::uint32_t last_sequence) {
-  BufferVerdict v;
-  // Sequence numbers count every frame the device produced, delivered or not
-  // (unsigned difference: wraps at 2^32 correctly).
-  if (has_last) {
-    const std::uint32_t step = sequence - last_sequence;
-    if (step > kMaxCountedSequenceGap && step < 0x80000000u) {
-      v.sequence_outlier = true;  // a bit flip or a garbage field, not 10000 lost frames
-    } else if (step > 1 && step < 0x80000000u) {
-      v.lost_before = step - 1;
-    }
-  }
-  if (error_flag) {
-    v.why = "the driver flagged the buffer as corrupted (V4L2_BUF_FLAG_ERROR)";
-  } else if (bytes_used != expected_bytes) {
-    v.why = "frame of the wrong size (bytesused differs from the negotiated format)";
-  } else {
-    v.usable = true;
-  }
-  return v;
-}
-
 V4l2FrameSource::V4l2FrameSource(const V4l2Config& config, const CameraModel& camera)
     : config_(config),
       camera_(camera),
       backoff_s_(config.reopen_backoff_min_s),
-      frame_time_(config.time) {}
+      intake_(config.time, camera) {}
+
+V4l2Counters V4l2FrameSource::counters() const {
+  V4l2Counters c;
+  static_cast<BufferCounters&>(c) = intake_.counters();
+  c.device_errors = device_errors_;
+  c.reopens = reopens_;
+  return c;
+}
 
 V4l2FrameSource::~V4l2FrameSource() {
   close_device();
@@ -130,7 +115,7 @@ bool V4l2FrameSource::open(std::string* error) {
   }
   bytes_per_line_ = std::max<std::uint32_t>(fmt.fmt.pix.bytesperline,
                                             static_cast<std::uint32_t>(camera_.width) * 2);
-  image_bytes_ = fmt.fmt.pix.sizeimage;
+  intake_.set_image_bytes(fmt.fmt.pix.sizeimage);
   v4l2_requestbuffers request{};
   request.count = static_cast<std::uint32_t>(std::clamp(config_.buffers, 2, 16));
   request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
@@ -152,7 +137,7 @@ bool V4l2FrameSource::open(std::string* error) {
   }
   v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (xioctl(fd_, VIDIOC_STREAMON, &type) < 0) return fail("VIDIOC_STREAMON");
-  has_last_ = false;
+  intake_.restart_sequence();
   ever_opened_ = true;
   return true;
 }
@@ -161,7 +146,7 @@ bool V4l2FrameSource::reopen_due(double now_s) {
   if (now_s < next_reopen_s_) return false;
   std::string error;
   if (open(&error)) {
-    ++counters_.reopens;
+    ++reopens_;
     backoff_s_ = config_.reopen_backoff_min_s;
     return true;
   }
@@ -183,45 +168,25 @@ hal::FrameRead V4l2FrameSource::next(hal::CameraFrame* frame, int wait_ms, std::
   if (xioctl(fd_, VIDIOC_DQBUF, &buf) < 0) {
     if (errno == EAGAIN) return hal::FrameRead::kNone;
     // The device went away (unplugged, driver reset): reopen with backoff.
-    ++counters_.device_errors;
+    ++device_errors_;
     close_device();
     next_reopen_s_ = monotonic_s() + backoff_s_;
     return hal::FrameRead::kNone;
   }
-  const BufferVerdict verdict = check_buffer((buf.flags & V4L2_BUF_FLAG_ERROR) != 0, buf.bytesused,
-                                             image_bytes_, buf.sequence, has_last_, last_sequence_);
-  counters_.lost += verdict.lost_before;
-  counters_.sequence_outliers += verdict.sequence_outlier ? 1 : 0;
-  has_last_ = true;
-  last_sequence_ = buf.sequence;
   hal::FrameRead result = hal::FrameRead::kRejected;
-  if (verdict.usable && buf.index < static_cast<std::uint32_t>(mapped_)) {
-    const auto* base = static_cast<const std::uint8_t*>(mappings_[buf.index].start);
-    const std::size_t row_bytes = static_cast<std::size_t>(camera_.width) * 2;
-    for (int y = 0; y < camera_.height; ++y) {
-      std::memcpy(frame->depth.data() + static_cast<std::size_t>(y) * camera_.width,
-                  base + static_cast<std::size_t>(y) * bytes_per_line_, row_bytes);
-    }
+  if (buf.index < static_cast<std::uint32_t>(mapped_)) {
+    DequeuedBuffer dequeued;
+    dequeued.image = static_cast<const std::uint8_t*>(mappings_[buf.index].start);
+    dequeued.bytes_per_line = bytes_per_line_;
+    dequeued.bytes_used = buf.bytesused;
+    dequeued.sequence = buf.sequence;
     // The driver's capture time (CLOCK_MONOTONIC for V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC).
-    frame->time_s = static_cast<double>(buf.timestamp.tv_sec) +
-                    static_cast<double>(buf.timestamp.tv_usec) * 1e-6;
-    frame->has_left = false;
-    const TimeVerdict time = frame_time_.offer(frame->time_s);
-    if (accepted(time)) {
-      counters_.clock_steps += time == TimeVerdict::kAdopted ? 1 : 0;
-      ++counters_.frames;
-      result = hal::FrameRead::kFrame;
-    } else {
-      ++counters_.rejected_time;
-      if (why != nullptr) why->assign(to_string(time));
-    }
-  } else {
-    if (buf.flags & V4L2_BUF_FLAG_ERROR) {
-      ++counters_.rejected_error;
-    } else {
-      ++counters_.rejected_size;
-    }
-    if (why != nullptr) why->assign(verdict.why != nullptr ? verdict.why : "bad buffer index");
+    dequeued.timestamp_s = static_cast<double>(buf.timestamp.tv_sec) +
+                           static_cast<double>(buf.timestamp.tv_usec) * 1e-6;
+    dequeued.error_flag = (buf.flags & V4L2_BUF_FLAG_ERROR) != 0;
+    result = intake_.take(dequeued, frame, why);
+  } else if (why != nullptr) {
+    why->assign("bad buffer index");
   }
   xioctl(fd_, VIDIOC_QBUF, &buf);  // back to the driver at once
   return result;

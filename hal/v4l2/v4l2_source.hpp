@@ -10,6 +10,7 @@
 #include <string>
 
 #include "hal/frames/frame_source.hpp"
+#include "hal/v4l2/buffer_intake.hpp"
 #include "zonemap/time_watermark.hpp"
 
 namespace zonemap::v4l2 {
@@ -24,20 +25,7 @@ struct V4l2Config {
   TimeWatermarkConfig time;  // buffer timestamps: a lone one far off costs its frame
 };
 
-// The checks on one dequeued buffer (pure: tested on any host).
-struct BufferVerdict {
-  bool usable = false;
-  const char* why = nullptr;      // when not usable
-  std::int64_t lost_before = 0;   // frames the driver skipped before this one
-  bool sequence_outlier = false;  // a sequence number far ahead: not counted as lost frames
-};
-inline constexpr std::uint32_t kMaxCountedSequenceGap = 10000;  // ~5 min at 30 Hz
-BufferVerdict check_buffer(bool error_flag, std::uint32_t bytes_used, std::uint32_t expected_bytes,
-                           std::uint32_t sequence, bool has_last, std::uint32_t last_sequence);
-
-struct V4l2Counters {
-  std::int64_t frames = 0, rejected_size = 0, rejected_error = 0, lost = 0;
-  std::int64_t rejected_time = 0, sequence_outliers = 0, clock_steps = 0;
+struct V4l2Counters : BufferCounters {
   std::int64_t device_errors = 0, reopens = 0;
 };
 
@@ -50,8 +38,8 @@ class V4l2FrameSource final : public hal::FrameSource {
   const CameraModel& camera() const override { return camera_; }
   hal::CameraFrame make_frame() const override;
   hal::FrameRead next(hal::CameraFrame* frame, int wait_ms, std::string* why) override;
-  std::int64_t frames_lost() const override { return counters_.lost; }
-  const V4l2Counters& counters() const { return counters_; }
+  std::int64_t frames_lost() const override { return intake_.counters().lost; }
+  V4l2Counters counters() const;
 
  private:
   void close_device();
@@ -66,13 +54,11 @@ class V4l2FrameSource final : public hal::FrameSource {
   };
   std::array<Mapping, 16> mappings_{};
   int mapped_ = 0;
-  std::uint32_t bytes_per_line_ = 0, image_bytes_ = 0;
-  bool has_last_ = false;
-  std::uint32_t last_sequence_ = 0;
+  std::uint32_t bytes_per_line_ = 0;
   double backoff_s_ = 0.0, next_reopen_s_ = 0.0;
   bool ever_opened_ = false;
-  V4l2Counters counters_;
-  TimeWatermark frame_time_;
+  std::int64_t device_errors_ = 0, reopens_ = 0;
+  BufferIntake intake_;
 };
 
 }  // namespace zonemap::v4l2

@@ -277,10 +277,13 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   }
   links.add("frames_lost", stats_.frames_lost);
   if (v4l2_ != nullptr) {
-    const v4l2::V4l2Counters& v = v4l2_->counters();
+    const v4l2::V4l2Counters v = v4l2_->counters();
     links.add("v4l2_rejected_size", v.rejected_size);
     links.add("v4l2_rejected_error", v.rejected_error);
     links.add("v4l2_rejected_time", v.rejected_time);
+    links.add("v4l2_time_repeated", v.time_repeated);
+    links.add("v4l2_time_past", v.time_past);
+    links.add("v4l2_time_future", v.time_future);
     links.add("v4l2_sequence_outliers", v.sequence_outliers);
     links.add("v4l2_clock_steps", v.clock_steps);
   }

@@ -1,0 +1,69 @@
+// A generated flight mapped through the threaded pipeline, as the tests set it up:
+// the posts flight, its mapper and feature map, and hooks that note what was mapped.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hal/replay/sequence.hpp"
+#include "hal/replay/yaml_config.hpp"
+#include "hal/runtime/pipeline.hpp"
+#include "test_support.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/mapper.hpp"
+
+namespace zonemap::testing {
+
+struct RecordingHooks : runtime::MappingHooks {
+  std::vector<std::size_t> mapped;  // reserved: the mapping thread must not allocate
+  Mapper* mapper = nullptr;
+  FeatureMap* features = nullptr;
+  void after_frame(std::size_t index, const Eigen::Isometry3d&, const FrameReport&,
+                   double) override {
+    if (mapped.size() < mapped.capacity()) mapped.push_back(index);
+    // Extraction: the pipeline's own thread (the feature map is not ours to touch here).
+  }
+};
+
+struct Flight {
+  TempDir dir;
+  MapConfig config;
+  hal::ReplaySequence sequence;
+  std::unique_ptr<Mapper> mapper;
+  std::unique_ptr<FeatureMap> features;
+  RecordingHooks hooks;
+
+  explicit Flight(std::size_t frames) {
+    const std::string path = write_test_scenario("posts-through", dir / "seq", 4.0, 4, frames);
+    std::string error;
+    EXPECT_TRUE(hal::load_map_config(path, &config, &error)) << error;
+    EXPECT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
+    mapper = std::make_unique<Mapper>(config, sequence.camera());
+    features = std::make_unique<FeatureMap>(config, true);
+    mapper->zones().add_observer(features.get());
+    hooks.mapped.reserve(frames);
+    hooks.mapper = mapper.get();
+    hooks.features = features.get();
+  }
+
+  runtime::PipelineStats run(hal::FrameSource& frames, hal::PoseSource* ins,
+                             std::span<hal::ObstacleSink* const> sinks, bool lossless = true) {
+    runtime::PipelineOptions options;
+    options.lossless = lossless;
+    options.publish_every_frames = 1;
+    options.pose_wait_s = 0.02;
+    runtime::Pipeline pipeline(frames, ins == nullptr ? &sequence.poses() : nullptr, ins, sinks,
+                               *mapper, *features, hooks, options);
+    pipeline.run();
+    return pipeline.stats();
+  }
+  std::vector<ObstacleBox> boxes() {
+    std::vector<ObstacleBox> out(features->capacity());
+    out.resize(features->merged(out.data(), out.size(), true));
+    return out;
+  }
+};
+
+}  // namespace zonemap::testing

@@ -25,6 +25,10 @@ std::string validate(const MapConfig& c) {
     why << "sensor.pixel_step must be in [1, 64]";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
+  } else if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {
+    why << "fusion.full_weight_resolution_cells must be in [0.1, 100]";
+  } else if (!(c.min_weight >= 0.05) || c.min_weight > 1.0) {
+    why << "fusion.min_weight must be in [0.05, 1]";
   } else if (!(c.saturation_units >= 1.0) || c.saturation_units > kMaxFusedUnits) {
     why << "fusion.saturation must be in [1, " << kMaxFusedUnits << "]";
   } else if (!(c.occupied_threshold_units > 0.0) ||

@@ -52,6 +52,13 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       parent_(new std::uint32_t[capacity_]()),
+      core_min_cells_(config.features.split_touching ? config.features.core_min_cells : 0),
+      region_start_(new std::size_t[kMaxCores + 1]()),
+      core_first_(new std::size_t[kMaxCores]()),
+      core_end_(new std::size_t[kMaxCores]()),
+      column_queue_(new std::uint32_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      region_box_(new RegionBox[kMaxCores]()),
+      region_root_(new std::uint16_t[kMaxCores]()),
       scratch_(config.zone_cells) {}
 
 std::size_t FeatureMap::reserved_bytes() const {
@@ -60,7 +67,8 @@ std::size_t FeatureMap::reserved_bytes() const {
   return capacity_ * (sizeof(Feature) + sizeof(std::uint32_t)) + shapes_.reserved_bytes() +
          (cells + 63) / 64 * 8 + cells * sizeof(std::uint32_t) + columns * (1 + 3 * 2) +
          2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t) +
-         scratch_.reserved_bytes();
+         (3 * kMaxCores + 1) * sizeof(std::size_t) + columns * sizeof(std::uint32_t) +
+         kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes();
 }
 
 std::size_t FeatureMap::count(FeatureKind kind) const {
@@ -186,81 +194,24 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
     if (f->in_use && f->zone == zone.key()) f->stale = true;
   }
-  auto visited = [&](std::size_t i) { return (visited_[i >> 6] >> (i & 63)) & 1u; };
-  auto mark = [&](std::size_t i) { visited_[i >> 6] |= std::uint64_t{1} << (i & 63); };
-  const std::size_t plane = static_cast<std::size_t>(nx) * ny;
-
   for (std::size_t start = 0; start < total; ++start) {
     if ((start & 63) == 0 && zone.occupied_word(start >> 6) == 0) {  // 64 empty cells
       start += 63;
       continue;
     }
     if (visited(start) || !zone.occupied(start)) continue;
-    const int sx = static_cast<int>(start % nx);
-    const int sy = static_cast<int>((start / nx) % ny);
-    const int sz = static_cast<int>(start / plane);
-    const bool ground = is_ground_cell(sx, sy, sz);
-    // Breadth-first fill of the 6-connected cells of the same class. Each cell is
-    // queued once (marked when queued), so the queue never exceeds the zone.
-    std::size_t head = 0;
-    std::size_t tail = 0;
-    component_[tail++] = static_cast<std::uint32_t>(start);
-    mark(start);
-    CellIndex lo{sx, sy, sz};
-    CellIndex hi{sx, sy, sz};
-    // An obstacle resting on the ground layer reaches down to the terrain surface:
-    // its lowest part lies within the ground thickness and was labelled ground.
-    int standing_height = INT32_MAX;
-    while (head < tail) {
-      const std::size_t i = component_[head++];
-      const int x = static_cast<int>(i % nx);
-      const int y = static_cast<int>((i / nx) % ny);
-      const int z = static_cast<int>(i / plane);
-      lo = {std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z)};
-      hi = {std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z)};
-      if (!ground) {
-        const int below = z_up_ ? z - 1 : z + 1;
-        if (below >= 0 && below < nz && zone.occupied(zone.index(x, y, below)) &&
-            is_ground_cell(x, y, below)) {
-          standing_height =
-              std::min(standing_height, terrain_[static_cast<std::size_t>(y) * nx + x] + 1);
-        }
-      }
-      const int neighbour[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
-                                   {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
-      for (const auto& n : neighbour) {
-        if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
-        const std::size_t j = zone.index(n[0], n[1], n[2]);
-        if (visited(j) || !zone.occupied(j)) continue;
-        if (is_ground_cell(n[0], n[1], n[2]) != ground) continue;
-        mark(j);
-        component_[tail++] = static_cast<std::uint32_t>(j);
-      }
-    }
-    const std::int32_t count = static_cast<std::int32_t>(tail);
-    if (count < config_.min_cells) {
-      ++counters_.objects_too_small;
+    const bool ground = is_ground_cell(cell_x(start), cell_y(start), cell_z(start));
+    const std::size_t count = fill_component(zone, start, ground);
+    const std::size_t regions = ground ? 0 : split_at_valleys(zone, count);
+    if (regions <= 1) {
+      add_object(zone, component_.get(), count, ground);
       continue;
     }
-    if (standing_height != INT32_MAX) {
-      const int z_ground = z_up_ ? standing_height : nz - 1 - standing_height;
-      lo.z = std::min(lo.z, z_ground);
-      hi.z = std::max(hi.z, z_ground);
+    ++counters_.objects_split;
+    for (std::size_t r = 0; r < regions; ++r) {
+      const std::size_t size = region_start_[r + 1] - region_start_[r];
+      if (size > 0) add_object(zone, component_.get() + region_start_[r], size, false);
     }
-    // Footprint s'(x, y) of eq. (8): any occupied cell in the column.
-    const int w = hi.x - lo.x + 1;
-    const int h = hi.y - lo.y + 1;
-    std::fill_n(footprint_.get(), static_cast<std::size_t>(w) * h, std::uint8_t{0});
-    for (std::size_t k = 0; k < tail; ++k) {
-      const std::size_t i = component_[k];
-      const int x = static_cast<int>(i % nx) - lo.x;
-      const int y = static_cast<int>((i / nx) % ny) - lo.y;
-      footprint_[static_cast<std::size_t>(y) * w + x] = 1;
-    }
-    const CellIndex& origin = zone.origin();
-    upsert(zone.key(), ground ? FeatureKind::kGround : FeatureKind::kObstacle,
-           CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
-           CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z}, count);
   }
   // Objects of this zone that the grid no longer holds.
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
@@ -269,6 +220,269 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
       ++counters_.features_removed;
     }
   }
+}
+
+std::size_t FeatureMap::fill_component(const ZoneSnapshot& zone, std::size_t start, bool ground) {
+  // Breadth-first fill of the 6-connected cells of the same class. Each cell is
+  // queued once (marked when queued), so the queue never exceeds the zone.
+  std::size_t head = 0;
+  std::size_t tail = 0;
+  component_[tail++] = static_cast<std::uint32_t>(start);
+  mark(start);
+  while (head < tail) {
+    const std::size_t i = component_[head++];
+    for_each_neighbour(i, [&](std::size_t j, int x, int y, int z) {
+      if (visited(j) || !zone.occupied(j) || is_ground_cell(x, y, z) != ground) return;
+      mark(j);
+      component_[tail++] = static_cast<std::uint32_t>(j);
+    });
+  }
+  return tail;
+}
+
+std::size_t FeatureMap::grow_regions(const ZoneSnapshot& zone, std::uint32_t* queue,
+                                     std::size_t tail, int level) {
+  // Breadth-first from every labelled cell at once: each cell at or above `level`
+  // goes to the region that reaches it first.
+  for (std::size_t head = 0; head < tail; ++head) {
+    const std::uint32_t label = unpack_label(queue[head]);
+    for_each_neighbour(unpack_cell(queue[head]), [&](std::size_t j, int x, int y, int z) {
+      if (visited(j) || !zone.occupied(j) || zone.level(j) < level || is_ground_cell(x, y, z)) {
+        return;
+      }
+      mark(j);
+      queue[tail++] = pack(j, label);
+    });
+  }
+  return tail;
+}
+
+std::size_t FeatureMap::add_cores(const ZoneSnapshot& zone, std::size_t count, std::uint32_t* queue,
+                                  std::size_t tail, int level, std::uint32_t* cores) {
+  // Parts at or above `level` that no region reached are new cores, unless they
+  // are specks (fewer than core_min_cells: left for the growth).
+  for (std::size_t k = 0; k < count && *cores < kMaxCores; ++k) {
+    const std::size_t seed = component_[k];
+    if (visited(seed) || zone.level(seed) < level) continue;
+    const std::size_t first = tail;
+    queue[tail++] = pack(seed, *cores);
+    mark(seed);
+    for (std::size_t head = first; head < tail; ++head) {
+      for_each_neighbour(unpack_cell(queue[head]), [&](std::size_t j, int x, int y, int z) {
+        if (visited(j) || !zone.occupied(j) || zone.level(j) < level || is_ground_cell(x, y, z)) {
+          return;
+        }
+        mark(j);
+        queue[tail++] = pack(j, *cores);
+      });
+    }
+    if (tail - first < static_cast<std::size_t>(core_min_cells_)) {
+      for (std::size_t q = first; q < tail; ++q) unmark(unpack_cell(queue[q]));
+      tail = first;
+      continue;
+    }
+    core_first_[*cores] = first;
+    core_end_[*cores] = tail;
+    ++*cores;
+  }
+  return tail;
+}
+
+std::size_t FeatureMap::split_at_valleys(const ZoneSnapshot& zone, std::size_t count) {
+  // Objects that stand close (trees in a line, bushes of a hedge) touch through
+  // cells that fewer or farther views saw occupied: the fused value dips between
+  // them. A watershed by flooding, in levels from the object's peak down:
+  // at each level the regions found so far grow into the cells now above it, and
+  // parts that none of them reaches are new regions (cores). What is left below
+  // the last level goes to the nearest region. A part whose value never rises
+  // apart from its neighbour's (no dip) stays one region.
+  const std::size_t total = zone.cell_count();
+  if (!(core_min_cells_ > 0) || count < 2 * static_cast<std::size_t>(core_min_cells_) ||
+      2 * count > total || !zone.levels_complete()) {
+    return 1;  // nothing to split, no room for the growth queue, or no levels
+  }
+  int peak = 0;
+  for (std::size_t k = 0; k < count; ++k) peak = std::max<int>(peak, zone.level(component_[k]));
+  for (std::size_t k = 0; k < count; ++k) unmark(component_[k]);
+  // The queue lives behind the component's cells: entries are a cell index (22
+  // bits: kMaxZoneCells) and its region's label above it.
+  std::uint32_t* queue = component_.get() + count;
+  std::size_t tail = 0;
+  std::uint32_t cores = 0;
+  // Levels 0.9^k of the peak down to the occupied threshold: a dip of a tenth
+  // shows, and a weak object next to a strong one still rises apart from it.
+  const int floor_level = threshold_ / ZoneSnapshot::kLevelStep + 1;
+  for (int level = peak * 9 / 10; level >= floor_level; level = level * 9 / 10) {
+    tail = grow_regions(zone, queue, tail, level);
+    tail = add_cores(zone, count, queue, tail, level, &cores);
+    if (level < 10) break;  // 9 * 9 / 10 rounds to itself
+  }
+  for (std::size_t k = 0; k < count; ++k) mark(component_[k]);
+  if (cores <= 1) return 1;
+  // Each cell then goes to the core nearest in x-y: a region's growth along the
+  // low band that joins neighbours would otherwise reach far under them.
+  label_columns_by_nearest_core(zone, count, queue, cores);
+  sort_by_column_label(count, cores);
+  // Two faces of one solid thing (a hut seen from both sides, its inside never
+  // seen) are cores too; their regions' x-y boxes overlap mostly, those of
+  // neighbours standing apart hardly: such regions are one object again.
+  if (merge_overlapping_regions(cores)) sort_by_column_label(count, cores);
+  return cores;
+}
+
+bool FeatureMap::merge_overlapping_regions(std::uint32_t cores) {
+  RegionBox* box = region_box_.get();
+  for (std::uint32_t r = 0; r < cores; ++r) {
+    box[r] = {INT32_MAX, INT32_MAX, INT32_MIN, INT32_MIN};
+    for (std::size_t k = region_start_[r]; k < region_start_[r + 1]; ++k) {
+      const int x = cell_x(component_[k]), y = cell_y(component_[k]);
+      box[r] = {std::min(box[r].x0, x), std::min(box[r].y0, y), std::max(box[r].x1, x),
+                std::max(box[r].y1, y)};
+    }
+    region_root_[r] = static_cast<std::uint16_t>(r);
+  }
+  const auto root = [&](std::uint32_t r) {
+    while (region_root_[r] != r) r = region_root_[r];
+    return r;
+  };
+  const auto area = [](const RegionBox& b) {
+    return static_cast<std::int64_t>(b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1);
+  };
+  bool merged_any = false;
+  for (std::uint32_t a = 0; a < cores; ++a) {
+    if (region_start_[a] == region_start_[a + 1]) continue;
+    for (std::uint32_t b = a + 1; b < cores; ++b) {
+      if (region_start_[b] == region_start_[b + 1]) continue;
+      const std::int64_t w = std::min(box[a].x1, box[b].x1) - std::max(box[a].x0, box[b].x0) + 1;
+      const std::int64_t h = std::min(box[a].y1, box[b].y1) - std::max(box[a].y0, box[b].y0) + 1;
+      if (w <= 0 || h <= 0 || 2 * w * h <= std::min(area(box[a]), area(box[b]))) continue;
+      const std::uint32_t ra = root(a), rb = root(b);
+      if (ra != rb) region_root_[std::max(ra, rb)] = static_cast<std::uint16_t>(std::min(ra, rb));
+      merged_any = true;
+    }
+  }
+  if (!merged_any) return false;
+  // The columns take their region's root as label (sort_by_column_label reads them).
+  std::int16_t* label = column_tmp_.get();
+  const std::size_t nx = static_cast<std::size_t>(dims_[0]);
+  for (std::uint32_t r = 0; r < cores; ++r) {
+    for (std::size_t k = region_start_[r]; k < region_start_[r + 1]; ++k) {
+      const std::uint32_t c = component_[k];
+      label[static_cast<std::size_t>(cell_y(c)) * nx + cell_x(c)] =
+          static_cast<std::int16_t>(root(r));
+    }
+  }
+  return true;
+}
+
+void FeatureMap::label_columns_by_nearest_core(const ZoneSnapshot& zone, std::size_t count,
+                                               const std::uint32_t* queue, std::uint32_t cores) {
+  const int nx = dims_[0];
+  CellIndex lo{cell_x(component_[0]), cell_y(component_[0]), 0};
+  CellIndex hi = lo;
+  for (std::size_t k = 0; k < count; ++k) {
+    lo = {std::min(lo.x, cell_x(component_[k])), std::min(lo.y, cell_y(component_[k])), 0};
+    hi = {std::max(hi.x, cell_x(component_[k])), std::max(hi.y, cell_y(component_[k])), 0};
+  }
+  std::int16_t* label = column_tmp_.get();
+  for (int y = lo.y; y <= hi.y; ++y)
+    std::fill_n(label + static_cast<std::size_t>(y) * nx + lo.x, hi.x - lo.x + 1, std::int16_t{-1});
+  // Breadth-first over the columns of the component's x-y box from every core's
+  // seed columns at once (4-connected).
+  std::size_t tail = 0;
+  for (std::uint32_t c = 0; c < cores; ++c) {
+    for (std::size_t q = core_first_[c]; q < core_end_[c]; ++q) {
+      const std::size_t cell = unpack_cell(queue[q]);
+      const std::size_t column = static_cast<std::size_t>(cell_y(cell)) * nx + cell_x(cell);
+      if (label[column] >= 0) continue;
+      label[column] = static_cast<std::int16_t>(c);
+      column_queue_[tail++] = static_cast<std::uint32_t>(column);
+    }
+  }
+  for (std::size_t head = 0; head < tail; ++head) {
+    const std::uint32_t column = column_queue_[head];
+    const int x = static_cast<int>(column % static_cast<std::uint32_t>(nx));
+    const int y = static_cast<int>(column / static_cast<std::uint32_t>(nx));
+    const auto visit = [&](int vx, int vy) {
+      if (vx < lo.x || vx > hi.x || vy < lo.y || vy > hi.y) return;
+      std::int16_t& l = label[static_cast<std::size_t>(vy) * nx + vx];
+      if (l >= 0) return;
+      l = label[column];
+      column_queue_[tail++] = static_cast<std::uint32_t>(vy * nx + vx);
+    };
+    visit(x - 1, y);
+    visit(x + 1, y);
+    visit(x, y - 1);
+    visit(x, y + 1);
+  }
+  static_cast<void>(zone);
+}
+
+void FeatureMap::sort_by_column_label(std::size_t count, std::uint32_t cores) {
+  // Counting sort by the column's label into component_[0, count) (through the
+  // queue area behind it): region r is [region_start_[r], region_start_[r + 1]).
+  const int nx = dims_[0];
+  const std::int16_t* label = column_tmp_.get();
+  const auto label_of = [&](std::uint32_t cell) {
+    return static_cast<std::size_t>(
+        label[static_cast<std::size_t>(cell_y(cell)) * nx + cell_x(cell)]);
+  };
+  std::fill_n(region_start_.get(), cores + 1, std::size_t{0});
+  for (std::size_t k = 0; k < count; ++k) ++region_start_[label_of(component_[k]) + 1];
+  for (std::uint32_t r = 0; r < cores; ++r) region_start_[r + 1] += region_start_[r];
+  std::uint32_t* sorted = component_.get() + count;
+  for (std::size_t k = 0; k < count; ++k)
+    sorted[region_start_[label_of(component_[k])]++] = component_[k];
+  std::copy_n(sorted, count, component_.get());
+  // region_start_[r] now ends region r: shifted back to where each begins.
+  for (std::uint32_t r = cores; r > 0; --r) region_start_[r] = region_start_[r - 1];
+  region_start_[0] = 0;
+}
+
+void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count,
+                            bool ground) {
+  if (count < static_cast<std::size_t>(config_.min_cells)) {
+    ++counters_.objects_too_small;
+    return;
+  }
+  const int nx = dims_[0];
+  const int nz = dims_[2];
+  CellIndex lo{cell_x(cells[0]), cell_y(cells[0]), cell_z(cells[0])};
+  CellIndex hi = lo;
+  // An obstacle resting on the ground layer reaches down to the terrain surface:
+  // its lowest part lies within the ground thickness and was labelled ground.
+  int standing_height = INT32_MAX;
+  for (std::size_t k = 0; k < count; ++k) {
+    const int x = cell_x(cells[k]);
+    const int y = cell_y(cells[k]);
+    const int z = cell_z(cells[k]);
+    lo = {std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z)};
+    hi = {std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z)};
+    if (ground) continue;
+    const int below = z_up_ ? z - 1 : z + 1;
+    if (below >= 0 && below < nz && zone.occupied(zone.index(x, y, below)) &&
+        is_ground_cell(x, y, below)) {
+      standing_height =
+          std::min(standing_height, terrain_[static_cast<std::size_t>(y) * nx + x] + 1);
+    }
+  }
+  if (standing_height != INT32_MAX) {
+    const int z_ground = z_up_ ? standing_height : nz - 1 - standing_height;
+    lo.z = std::min(lo.z, z_ground);
+    hi.z = std::max(hi.z, z_ground);
+  }
+  // Footprint s'(x, y) of eq. (8): any occupied cell in the column.
+  const int w = hi.x - lo.x + 1;
+  const int h = hi.y - lo.y + 1;
+  std::fill_n(footprint_.get(), static_cast<std::size_t>(w) * h, std::uint8_t{0});
+  for (std::size_t k = 0; k < count; ++k) {
+    footprint_[static_cast<std::size_t>(cell_y(cells[k]) - lo.y) * w + cell_x(cells[k]) - lo.x] = 1;
+  }
+  const CellIndex& origin = zone.origin();
+  upsert(zone.key(), ground ? FeatureKind::kGround : FeatureKind::kObstacle,
+         CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
+         CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z},
+         static_cast<std::int32_t>(count));
 }
 
 double FeatureMap::relevance(const Feature& f) const {

@@ -358,3 +358,31 @@ void LocalGrid::blur_across(int axis, int radius) {
 }
 
 }  // namespace zonemap
+
+namespace zonemap {
+
+void LocalGrid::weight_occupancy_by_range(const Eigen::Vector3f& camera,
+                                          const Eigen::Vector3f& axis_per_cell,
+                                          float full_weight_depth_m, float min_weight) {
+  const float full_squared = full_weight_depth_m * full_weight_depth_m;
+  for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
+    for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
+      const RowSpan& span = spans_[span_index(y, z)];
+      if (span.lo > span.hi) continue;
+      const Eigen::Vector3f first(static_cast<float>(span.lo) + 0.5f, static_cast<float>(y) + 0.5f,
+                                  static_cast<float>(z) + 0.5f);
+      const float depth0 = axis_per_cell.dot(first - camera);
+      LocalCell* row = cells_.get() + index(span.lo, y, z);
+      for (int i = 0; i <= span.hi - span.lo; ++i) {
+        if (row[i] <= 0) continue;
+        const float depth = depth0 + static_cast<float>(i) * axis_per_cell.x();
+        if (depth * depth <= full_squared) continue;
+        const float scaled =
+            static_cast<float>(row[i]) * std::max(min_weight, full_squared / (depth * depth));
+        row[i] = static_cast<LocalCell>(std::max(1.0f, std::round(scaled)));
+      }
+    }
+  }
+}
+
+}  // namespace zonemap

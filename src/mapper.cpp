@@ -127,6 +127,11 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
       first_raw_reaching(static_cast<float>(config.d_max_m), depth_to_m, false);
   raw_near_last_ = static_cast<std::uint16_t>(raw_near > 0 ? raw_near - 1 : 0);
   raw_far_last_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(raw_far - 1, 0xFFFF));
+  // Eq. (1): Δd = δ² σ / (b f) reaches full_weight_resolution_cells cells here.
+  const double resolution_factor = camera.match_sigma_px / (camera.baseline_m * camera.fx);
+  full_weight_depth_m_ =
+      static_cast<float>(std::sqrt(config.full_weight_resolution_cells * config.cell_size_m /
+                                   std::max(resolution_factor, 1e-12)));
 }
 
 CellIndex Mapper::cell_of(const Eigen::Vector3d& point) const {
@@ -260,8 +265,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     report.cells_hidden = drawn.cells_hidden;
     report.cells_exact = drawn.cells_exact;
     report.rays_exact = drawn.rays_exact;
-    local_.finish(config_.blur_radius);
-    zones_.fuse(local_);
+    finish_and_fuse(start, world_T_camera);
     return report;
   }
 
@@ -308,9 +312,20 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
     }
   }
 
-  local_.finish(config_.blur_radius);
-  zones_.fuse(local_);
+  finish_and_fuse(start, world_T_camera);
   return report;
+}
+
+void Mapper::finish_and_fuse(const Eigen::Vector3f& camera_cells,
+                             const Eigen::Isometry3d& world_T_camera) {
+  local_.finish(config_.blur_radius);
+  if (config_.fusion == MapConfig::Fusion::kRangeWeighted) {
+    const Eigen::Vector3f axis_per_cell =
+        (world_T_camera.linear().col(2) * config_.cell_size_m).cast<float>();
+    local_.weight_occupancy_by_range(camera_cells, axis_per_cell, full_weight_depth_m_,
+                                     static_cast<float>(config_.min_weight));
+  }
+  zones_.fuse(local_);
 }
 
 }  // namespace zonemap

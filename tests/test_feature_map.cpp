@@ -243,6 +243,79 @@ TEST(FeatureExtraction, SmallObjectsAreCountedAsNoise) {
 
 // --- re-integration (§IV-B) -----------------------------------------------------
 
+// Two columns 4 cells apart, joined by a low bridge of weaker cells (what the
+// blur and far views leave between trees of a line): two objects, split through
+// the bridge; the paper's extraction (split_touching off) gives one.
+void two_columns_and_a_bridge(TestZone* zone, FusedCell bridge) {
+  for (int z = 0; z < 6; ++z) {
+    for (int x = 2; x <= 3; ++x) {
+      for (int y = 2; y <= 3; ++y) zone->set(x, y, z, 30 * kCellScale);  // column A
+      for (int y = 8; y <= 9; ++y) zone->set(x, y, z, 20 * kCellScale);  // column B, weaker
+    }
+  }
+  for (int y = 4; y <= 7; ++y) zone->set(2, y, 1, bridge);
+}
+
+TEST(FeatureSplit, ObjectsJoinedThroughAValueDipAreSplitThroughIt) {
+  const std::array<int, 3> dims = {12, 12, 8};
+  for (const bool split : {true, false}) {
+    TestZone zone(dims, {0, 0, 0});
+    two_columns_and_a_bridge(&zone, 3 * kCellScale);
+    MapConfig config = feature_config(dims, false);
+    config.features.split_touching = split;
+    FeatureMap map(config, true);
+    map.extract(zone.view);
+    const auto objects = features_of(map, FeatureKind::kObstacle);
+    if (!split) {
+      ASSERT_EQ(objects.size(), 1u);
+      EXPECT_EQ(objects[0]->cells, 2 * 24 + 4);
+      continue;
+    }
+    ASSERT_EQ(objects.size(), 2u);
+    EXPECT_EQ(map.counters().objects_split, 1);
+    EXPECT_EQ(objects[0]->cells + objects[1]->cells, 2 * 24 + 4) << "every cell in one of them";
+    for (const Feature* f : objects) {
+      // Each box holds one column and at most the bridge's half on its side.
+      EXPECT_EQ(f->max.y - f->min.y, 3) << f->min.y << ".." << f->max.y;
+      EXPECT_EQ(f->min.x, 2);
+      EXPECT_EQ(f->max.x, 3);
+    }
+  }
+}
+
+TEST(FeatureSplit, OneObjectWithoutADipStaysWhole) {
+  // The same cells at one value: no part rises apart, nothing to split.
+  const std::array<int, 3> dims = {12, 12, 8};
+  TestZone zone(dims, {0, 0, 0});
+  two_columns_and_a_bridge(&zone, 20 * kCellScale);
+  for (int z = 0; z < 6; ++z)
+    for (int x = 2; x <= 3; ++x)
+      for (int y = 2; y <= 3; ++y) zone.set(x, y, z, 20 * kCellScale);
+  FeatureMap map(feature_config(dims, false), true);
+  map.extract(zone.view);
+  const auto objects = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_EQ(map.counters().objects_split, 0);
+  EXPECT_EQ(objects[0]->min.y, 2);
+  EXPECT_EQ(objects[0]->max.y, 9);
+}
+
+TEST(FeatureSplit, ASpeckAboveTheRestIsNotACore) {
+  // One block of 27 cells with two single hot cells in it: fewer than
+  // core_min_cells, so no split into specks.
+  const std::array<int, 3> dims = {12, 12, 8};
+  TestZone zone(dims, {0, 0, 0});
+  for (int x = 3; x < 6; ++x)
+    for (int y = 3; y < 6; ++y)
+      for (int z = 0; z < 3; ++z) zone.set(x, y, z, 10 * kCellScale);
+  zone.set(3, 3, 0, 40 * kCellScale);
+  zone.set(5, 5, 2, 40 * kCellScale);
+  FeatureMap map(feature_config(dims, false), true);
+  map.extract(zone.view);
+  EXPECT_EQ(features_of(map, FeatureKind::kObstacle).size(), 1u);
+  EXPECT_EQ(map.counters().objects_split, 0);
+}
+
 TEST(FeatureReintegration, ExactlyTheShapeCellsBecomeOccupied) {
   const std::array<int, 3> dims = {10, 10, 6};
   MapConfig config = feature_config(dims, false);

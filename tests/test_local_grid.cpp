@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -239,6 +240,30 @@ TEST(LocalGrid, UntouchedCellsBecomeUnknown) {
   for (int z = 0; z < 4; ++z)
     for (int y = 0; y < 4; ++y)
       for (int x = 0; x < 4; ++x) EXPECT_EQ(grid.at(x, y, z), 0);
+}
+
+TEST(LocalGrid, RangeWeightingScalesFarOccupiedEvidenceOnly) {
+  // Camera at grid x = 0 looking along +x, 1 m cells: δ of cell x is x + 0.5.
+  LocalGrid grid({40, 3, 3});
+  grid.reset(CellIndex{});
+  grid.extend_touched(0, 0, 0, 39, 2, 2);
+  for (const int x : {4, 13, 19, 39}) grid.write_max(x, 1, 1, kCellScale);
+  grid.write_max(30, 1, 1, -kCellScale);  // free evidence, far: unchanged
+  grid.write_max(20, 1, 1, 1);            // the smallest positive value stays positive
+  grid.finish(0);
+  const float full_m = 9.5f;  // full weight up to δ 9.5 m
+  grid.weight_occupancy_by_range({0.0f, 1.5f, 1.5f}, {1.0f, 0.0f, 0.0f}, full_m, 0.25f);
+  const auto expected = [&](float depth) {
+    const float w = std::clamp(full_m * full_m / (depth * depth), 0.25f, 1.0f);
+    return static_cast<LocalCell>(std::lround(static_cast<float>(kCellScale) * w));
+  };
+  EXPECT_EQ(grid.at(4, 1, 1), kCellScale) << "near: full weight";
+  EXPECT_EQ(grid.at(13, 1, 1), expected(13.5f));  // ~0.5
+  EXPECT_EQ(grid.at(19, 1, 1), expected(19.5f));  // the floor
+  EXPECT_EQ(grid.at(39, 1, 1), kCellScale / 4) << "never below min_weight";
+  EXPECT_EQ(grid.at(30, 1, 1), -kCellScale) << "free evidence keeps its weight";
+  EXPECT_EQ(grid.at(20, 1, 1), 1);
+  EXPECT_EQ(grid.at(10, 1, 1), 0) << "unknown stays unknown";
 }
 
 TEST(Fusion, AddsAndSaturatesAtTheConfiguredRange) {

@@ -40,6 +40,16 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                          ": sensor.integration must be 'reference' or 'projective'"};
       }
     };
+    auto weighting = [&](const YAML::Node& node) {
+      const std::string mode = node.as<std::string>();
+      if (mode == "range") {
+        c.fusion = MapConfig::Fusion::kRangeWeighted;
+      } else if (mode == "equal") {
+        c.fusion = MapConfig::Fusion::kEqual;
+      } else {
+        throw ParseError{where(path, node) + ": fusion.weighting must be 'range' or 'equal'"};
+      }
+    };
     auto section = [&](const std::string& name, std::map<std::string, Reader> readers) {
       return [&path, name, readers](const YAML::Node& node) {
         read_section(path, node, name, readers);
@@ -58,7 +68,11 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
          {"blur", section("blur", {{"radius", into(&c.blur_radius)}})},
          {"fusion", section("fusion", {{"saturation", into(&c.saturation_units)},
                                        {"occupied_threshold", into(&c.occupied_threshold_units)},
-                                       {"free_threshold", into(&c.free_threshold_units)}})},
+                                       {"free_threshold", into(&c.free_threshold_units)},
+                                       {"weighting", weighting},
+                                       {"full_weight_resolution_cells",
+                                        into(&c.full_weight_resolution_cells)},
+                                       {"min_weight", into(&c.min_weight)}})},
          {"sky_filter", section("sky_filter", {{"enabled", into(&c.sky.enabled)},
                                                {"min_intensity", into(&c.sky.min_intensity)},
                                                {"max_gradient", into(&c.sky.max_gradient)}})},
@@ -75,7 +89,9 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                {"quadtree_groups", into(&c.features.quadtree_groups)},
                                {"extract_every_frames", into(&c.features.extract_every_frames)},
                                {"reintegration", into(&c.features.reintegration_units)},
-                               {"merge_gap_cells", into(&c.features.merge_gap_cells)}})},
+                               {"merge_gap_cells", into(&c.features.merge_gap_cells)},
+                               {"split_touching", into(&c.features.split_touching)},
+                               {"core_min_cells", into(&c.features.core_min_cells)}})},
          {"pipeline",
           section("pipeline", {{"frame_period_s", into(&c.runtime.frame_period_s)},
                                {"pose_wait_s", into(&c.runtime.pose_wait_s)},

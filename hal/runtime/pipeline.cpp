@@ -168,6 +168,7 @@ struct Pipeline::Impl {
   Channel<ReintegrationBox, 1024> reintegration;  // extraction -> mapping
   ExtractionSchedule schedule;
   FusedCell snapshot_threshold;
+
   FusedCell reintegration_value;
   // Mapping-thread state for the feed below.
   double context_time_s = 0.0;
@@ -203,6 +204,7 @@ struct Pipeline::Impl {
         options(o),
         schedule(m.config().features.extract_every_frames),
         snapshot_threshold(f.occupied_threshold()),
+
         reintegration_value(f.reintegration_value()) {
     feed.impl = this;
     filled.connect(&acquisition_bell, &mapping_bell);

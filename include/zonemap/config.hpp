@@ -35,6 +35,12 @@ struct FeatureConfig {
                                           // one zone per frame at most (bounded work per frame)
   double reintegration_units = 4.0;       // value written into a re-allocated zone's object cells
   int merge_gap_cells = 1;  // per-zone features this close across zones are one object
+  // Objects that touch are split where the fused value dips between them
+  // (FeatureMap::split_at_valleys): cores are connected parts of at least
+  // core_min_cells cells near the object's peak value; every cell goes to its
+  // nearest core. false: never split (the paper's).
+  bool split_touching = true;
+  int core_min_cells = 8;
   // Ground: a column's terrain height is the lowest occupied cell, taken as the
   // minimum over a window, where at least min_coverage of the window's observed
   // columns (any cell known free or occupied) have an occupied cell: a surface, not
@@ -77,9 +83,17 @@ struct MapConfig {
   enum class Integration { kReference, kProjective };
   Integration integration = Integration::kProjective;  // the reference stays available by name
   int blur_radius = 1;                                 // binomial kernel radius (0 = no blur)
-  double saturation_units = 64.0;                      // |fused cell| limit, in sensor-model units
-  double occupied_threshold_units = 1.5;               // fused value above which a cell is occupied
-  double free_threshold_units = -1.0;                  // fused value below which a cell is free
+  // Eq. (7) adds every view alike (kEqual, the paper's); kRangeWeighted scales a
+  // view's occupied evidence by (δ_full / δ)², at least min_weight, beyond δ_full,
+  // the depth at which eq. (1)'s Δd is full_weight_resolution_cells cells
+  // (LocalGrid::weight_occupancy_by_range): near views sharpen what far views blurred.
+  enum class Fusion { kEqual, kRangeWeighted };
+  Fusion fusion = Fusion::kEqual;  // the paper's; configs name range where measured better
+  double full_weight_resolution_cells = 1.0;
+  double min_weight = 0.5;
+  double saturation_units = 64.0;         // |fused cell| limit, in sensor-model units
+  double occupied_threshold_units = 1.5;  // fused value above which a cell is occupied
+  double free_threshold_units = -1.0;     // fused value below which a cell is free
   SkyFilterConfig sky;
   double pose_max_gap_s = 0.1;        // largest gap between two poses interpolated over
   double pose_tolerance_s = 0.02;     // nearest pose accepted at the ends of a trajectory

@@ -70,6 +70,7 @@ struct FeatureCounters {
   std::int64_t features_evicted = 0;   // store full: a less relevant feature made room
   std::int64_t features_dropped = 0;   // store full: the new feature was the least relevant
   std::int64_t objects_too_small = 0;  // fewer than min_cells: noise
+  std::int64_t objects_split = 0;      // components split at value dips into several objects
   std::int64_t shapes_truncated = 0;   // quadtree pool full: box kept without its shape
   std::int64_t cells_reintegrated = 0;
 };
@@ -155,6 +156,65 @@ class FeatureMap : public ZoneObserver {
   Feature* free_slot(double new_relevance);
   void remove(Feature* f);
   int height_of(int z) const { return z_up_ ? z : dims_[2] - 1 - z; }
+  // Extraction steps: the 6-connected component of one class from `start` into
+  // component_ (returns its size); its split into regions around value cores
+  // (returns how many; 1: not split, component_ unchanged; else component_ holds
+  // the regions one after another, bounded by region_start_); one object's box,
+  // footprint and store entry.
+  std::size_t fill_component(const ZoneSnapshot& zone, std::size_t start, bool ground);
+  std::size_t split_at_valleys(const ZoneSnapshot& zone, std::size_t count);
+  // The watershed's two steps at one level (queue entries: packed cell and
+  // label; both return the new queue length).
+  std::size_t grow_regions(const ZoneSnapshot& zone, std::uint32_t* queue, std::size_t tail,
+                           int level);
+  std::size_t add_cores(const ZoneSnapshot& zone, std::size_t count, std::uint32_t* queue,
+                        std::size_t tail, int level, std::uint32_t* cores);
+  // Every column of the component's x-y box gets the label of the core nearest
+  // to it (column_tmp_); the component's cells are then sorted by it into regions.
+  void label_columns_by_nearest_core(const ZoneSnapshot& zone, std::size_t count,
+                                     const std::uint32_t* queue, std::uint32_t cores);
+  void sort_by_column_label(std::size_t count, std::uint32_t cores);
+  // Regions (sorted) whose x-y boxes overlap by more than half of the smaller are
+  // one object: their columns get one label; true when any were joined.
+  bool merge_overlapping_regions(std::uint32_t cores);
+  void add_object(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count,
+                  bool ground);
+  int cell_x(std::size_t i) const {
+    return static_cast<int>(i % static_cast<std::size_t>(dims_[0]));
+  }
+  int cell_y(std::size_t i) const {
+    return static_cast<int>((i / static_cast<std::size_t>(dims_[0])) %
+                            static_cast<std::size_t>(dims_[1]));
+  }
+  int cell_z(std::size_t i) const {
+    return static_cast<int>(
+        i / (static_cast<std::size_t>(dims_[0]) * static_cast<std::size_t>(dims_[1])));
+  }
+  bool visited(std::size_t i) const { return (visited_[i >> 6] >> (i & 63)) & 1u; }
+  void mark(std::size_t i) { visited_[i >> 6] |= std::uint64_t{1} << (i & 63); }
+  void unmark(std::size_t i) { visited_[i >> 6] &= ~(std::uint64_t{1} << (i & 63)); }
+  // The 6 neighbours inside the zone: fn(index, x, y, z).
+  template <typename Fn>
+  void for_each_neighbour(std::size_t i, Fn&& fn) const {
+    const int x = cell_x(i), y = cell_y(i), z = cell_z(i);
+    const std::size_t sx = 1, sy = static_cast<std::size_t>(dims_[0]),
+                      sz = sy * static_cast<std::size_t>(dims_[1]);
+    if (x > 0) fn(i - sx, x - 1, y, z);
+    if (x + 1 < dims_[0]) fn(i + sx, x + 1, y, z);
+    if (y > 0) fn(i - sy, x, y - 1, z);
+    if (y + 1 < dims_[1]) fn(i + sy, x, y + 1, z);
+    if (z > 0) fn(i - sz, x, y, z - 1);
+    if (z + 1 < dims_[2]) fn(i + sz, x, y, z + 1);
+  }
+  // Growth queue entries: a cell index below kMaxZoneCells (22 bits), its core above.
+  static constexpr std::uint32_t kCellBits = 22;
+  static constexpr std::uint32_t kMaxCores = 1023;
+  static_assert(kMaxZoneCells <= (std::size_t{1} << kCellBits));
+  static std::uint32_t pack(std::size_t cell, std::uint32_t label) {
+    return static_cast<std::uint32_t>(cell) | (label << kCellBits);
+  }
+  static std::size_t unpack_cell(std::uint32_t e) { return e & ((1u << kCellBits) - 1u); }
+  static std::uint32_t unpack_label(std::uint32_t e) { return e >> kCellBits; }
 
   FeatureConfig config_;
   double cell_size_m_;
@@ -181,7 +241,17 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::int32_t[]> coverage_;  // (nx + 1) * (ny + 1) summed-area table
   std::unique_ptr<std::int32_t[]> observed_;  // the same for columns with any known cell
   std::unique_ptr<std::uint32_t[]> parent_;   // union-find for merging, per feature
-  ZoneSnapshot scratch_;                      // extract(ZoneView) goes through it
+  FusedCell core_threshold_;
+  int core_min_cells_;                                    // 0: objects are never split
+  std::unique_ptr<std::size_t[]> region_start_;           // kMaxCores + 1 region bounds
+  std::unique_ptr<std::size_t[]> core_first_, core_end_;  // each core's seed cells in the queue
+  std::unique_ptr<std::uint32_t[]> column_queue_;         // nx * ny
+  struct RegionBox {
+    int x0, y0, x1, y1;
+  };
+  std::unique_ptr<RegionBox[]> region_box_;       // per region, x-y cells
+  std::unique_ptr<std::uint16_t[]> region_root_;  // union-find over regions
+  ZoneSnapshot scratch_;                          // extract(ZoneView) goes through it
 
   double time_s_ = 0.0;
   Eigen::Vector3d vehicle_m_ = Eigen::Vector3d::Zero();

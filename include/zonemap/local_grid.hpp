@@ -45,6 +45,18 @@ class LocalGrid {
   // unknown (0). Rounds half away from zero, so the blur is symmetric in sign.
   void finish(int blur_radius);
 
+  // Past the paper (eq. 7 adds every view alike), after finish(): each positive
+  // cell scaled by how sharply its view places a surface,
+  // w = clamp((δ_full/δ)², min_weight, 1) with δ the cell centre's depth along the
+  // optical axis (the floor keeps what only far views ever see, e.g. tree tops
+  // passed under, from fading below the occupied threshold). Δd grows with δ² (eq. 1),
+  // so a view from twice as far says a quarter as much about where the surface is;
+  // free evidence keeps its full weight (the ray did pass). `camera` is in grid
+  // units, `axis_per_cell` the optical axis times the cell size (metres of δ per
+  // grid unit). A positive cell stays at least 1 (a weak hint, never unknown).
+  void weight_occupancy_by_range(const Eigen::Vector3f& camera,
+                                 const Eigen::Vector3f& axis_per_cell, float full_weight_depth_m,
+                                 float min_weight);
   // The region finish() worked on (inclusive grid cells); empty when lo > hi.
   const std::array<int, 3>& active_lo() const { return active_lo_; }
   const std::array<int, 3>& active_hi() const { return active_hi_; }

@@ -98,6 +98,9 @@ class Mapper {
   // so that the comparisons run sixteen pixels at once; flags holds three rows
   // (the flags, then the columns' maxima and minima over rows v - 1..v + 1).
   void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
+  // The frame's local grid blurred, weighted by range (when configured), fused.
+  void finish_and_fuse(const Eigen::Vector3f& camera_cells,
+                       const Eigen::Isometry3d& world_T_camera);
 
   MapConfig config_;
   CameraModel camera_;
@@ -110,6 +113,7 @@ class Mapper {
   std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows
   std::uint16_t raw_near_last_ = 0;            // raw depths <= this are below d_min (0: none)
   std::uint16_t raw_far_last_ = 0;             // raw depths above this are beyond d_max
+  float full_weight_depth_m_ = 0.0f;           // range weighting: full weight up to here
 };
 
 }  // namespace zonemap

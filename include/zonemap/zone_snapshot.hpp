@@ -1,11 +1,13 @@
 // What feature extraction (paper §IV-A) reads of a zone, small enough to hand to
-// another thread: one bit per cell (occupied: above the features' threshold) and
+// another thread: one bit per cell (occupied: above the features' threshold), a coarse value
+// level per occupied cell (splitting objects that touch) and
 // one byte per column (any cell of it known, free or occupied: the ground
 // coverage test). At 160x160x80 that is 0.27 MB instead of the zone's 4 MB.
 // Reserved once; capture() does not allocate.
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -23,6 +25,17 @@ class ZoneSnapshot {
   void capture(const ZoneView& zone, FusedCell occupied_threshold);
 
   bool occupied(std::size_t i) const { return (occupied_[i >> 6] >> (i & 63)) & 1u; }
+  // The fused value of an occupied cell, coarsely (value / kLevelStep, at most
+  // 255), for splitting objects that touch; 0 when the zone held more occupied
+  // cells than the snapshot keeps levels for (levels_complete() is then false).
+  static constexpr int kLevelStep = 16;  // fixed-point units: a quarter sensor-model unit
+  std::uint8_t level(std::size_t i) const {
+    const std::size_t w = i >> 6;
+    const std::uint64_t below = occupied_[w] & ((std::uint64_t{1} << (i & 63)) - 1u);
+    const std::size_t rank = rank_[w] + static_cast<std::size_t>(std::popcount(below));
+    return rank < level_capacity_ ? levels_[rank] : std::uint8_t{0};
+  }
+  bool levels_complete() const { return levels_complete_; }
   bool column_known(int x, int y) const {
     return column_known_[static_cast<std::size_t>(y) * dims_[0] + x] != 0;
   }
@@ -42,11 +55,16 @@ class ZoneSnapshot {
   std::size_t reserved_bytes() const;
 
  private:
+  void capture_levels(const FusedCell* cells);
   std::array<int, 3> dims_;
   std::size_t cells_;
   ZoneKey key_;
   CellIndex origin_;
   std::unique_ptr<std::uint64_t[]> occupied_;
+  std::unique_ptr<std::uint32_t[]> rank_;   // per word: occupied cells before it
+  std::size_t level_capacity_;              // a sixteenth of the cells
+  std::unique_ptr<std::uint8_t[]> levels_;  // per occupied cell, in cell order
+  bool levels_complete_ = true;
   std::unique_ptr<std::uint8_t[]> column_known_;
 };
 

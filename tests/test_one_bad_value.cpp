@@ -525,7 +525,7 @@ void write_lines(const std::vector<std::string>& lines, const std::string& path)
 struct BadCanLine {
   const char* name;
   std::function<void(std::vector<std::string>*)> inject;
-  std::int64_t counted;  // refusals it may cause: the record, and the solution it broke
+  std::int64_t counted;  // refusals it may cause: the record(s) of the one solution it broke
 };
 void PrintTo(const BadCanLine& bad, std::ostream* out) {
   *out << bad.name;
@@ -545,6 +545,13 @@ const BadCanLine kBadCanLines[] = {
                  time + " can0 123#0011223344556677");
      },
      0},  // not the INS's: ignored (the decoder counts it), no solution lost
+    {"SequenceCounterFlipped",
+     [](std::vector<std::string>* l) {
+       std::string& line = (*l)[kBadLine];
+       char& high = line[line.find('#') + 1];  // SEQUENCE: data byte 0, high nibble
+       high = high == '8' ? '0' : '8';
+     },
+     3},  // a mixed set, and the two later parts of that solution come as orphans
     {"WrongLength",
      [](std::vector<std::string>* l) {
        std::string& line = (*l)[kBadLine];

@@ -7,6 +7,8 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace zonemap::hal {
 
@@ -45,6 +47,25 @@ inline void read_section(const std::string& path, const YAML::Node& section,
 template <typename T>
 Reader into(T* target) {
   return [target](const YAML::Node& node) { *target = node.as<T>(); };
+}
+
+// A setting that names one of a few choices: `key` (for the message) must be one
+// of `names`, which set *target to the value beside it.
+template <typename E>
+Reader one_of(const std::string& path, const std::string& key, E* target,
+              std::vector<std::pair<std::string, E>> names) {
+  return [path, key, target, names](const YAML::Node& node) {
+    const std::string v = node.as<std::string>();
+    std::string allowed;
+    for (const auto& [name, value] : names) {
+      if (v == name) {
+        *target = value;
+        return;
+      }
+      allowed += (allowed.empty() ? "'" : " or '") + name + "'";
+    }
+    throw ParseError{where(path, node) + ": " + key + " must be " + allowed};
+  };
 }
 
 inline bool load_file(const std::string& path, YAML::Node* root, std::string* error) {

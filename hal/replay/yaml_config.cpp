@@ -19,37 +19,16 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
       }
       for (int i = 0; i < 3; ++i) c.zone_cells[static_cast<std::size_t>(i)] = node[i].as<int>();
     };
-    auto placement = [&](const YAML::Node& node) {
-      const std::string v = node.as<std::string>();
-      if (v == "below") {
-        c.placement = MapConfig::Placement::kBelow;
-      } else if (v == "centred") {
-        c.placement = MapConfig::Placement::kCentred;
-      } else {
-        throw ParseError{where(path, node) + ": map.environment must be 'below' or 'centred'"};
-      }
-    };
-    auto integration = [&](const YAML::Node& node) {
-      const std::string mode = node.as<std::string>();
-      if (mode == "reference") {
-        c.integration = MapConfig::Integration::kReference;
-      } else if (mode == "projective") {
-        c.integration = MapConfig::Integration::kProjective;
-      } else {
-        throw ParseError{where(path, node) +
-                         ": sensor.integration must be 'reference' or 'projective'"};
-      }
-    };
-    auto weighting = [&](const YAML::Node& node) {
-      const std::string mode = node.as<std::string>();
-      if (mode == "range") {
-        c.fusion = MapConfig::Fusion::kRangeWeighted;
-      } else if (mode == "equal") {
-        c.fusion = MapConfig::Fusion::kEqual;
-      } else {
-        throw ParseError{where(path, node) + ": fusion.weighting must be 'range' or 'equal'"};
-      }
-    };
+    using MC = MapConfig;
+    const Reader placement = one_of<MC::Placement>(
+        path, "map.environment", &c.placement,
+        {{"below", MC::Placement::kBelow}, {"centred", MC::Placement::kCentred}});
+    const Reader integration = one_of<MC::Integration>(
+        path, "sensor.integration", &c.integration,
+        {{"reference", MC::Integration::kReference}, {"projective", MC::Integration::kProjective}});
+    const Reader weighting =
+        one_of<MC::Fusion>(path, "fusion.weighting", &c.fusion,
+                           {{"range", MC::Fusion::kRangeWeighted}, {"equal", MC::Fusion::kEqual}});
     auto section = [&](const std::string& name, std::map<std::string, Reader> readers) {
       return [&path, name, readers](const YAML::Node& node) {
         read_section(path, node, name, readers);

@@ -18,7 +18,7 @@ SocketCanPoseSource::SocketCanPoseSource(const std::string& interface, const Ins
 hal::PollResult SocketCanPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
   const double now = monotonic_now_s();
   if (!link_.ensure_open(now)) {
-    filter_.log().log(15, now, name(), link_.last_error());
+    filter_.log().log(hal::LogReason::kLinkDown, now, name(), link_.last_error());
     return hal::PollResult::kIdle;
   }
   if (wait_ms > 0 && !link_.wait_readable(wait_ms)) return hal::PollResult::kIdle;
@@ -29,7 +29,7 @@ hal::PollResult SocketCanPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
     const CanIo io = link_.receive(&frame, now);
     if (io == CanIo::kDown) {
       ++link_errors_;
-      filter_.log().log(15, now, name(), link_.last_error());
+      filter_.log().log(hal::LogReason::kLinkDown, now, name(), link_.last_error());
       break;
     }
     if (io != CanIo::kOk) break;
@@ -87,7 +87,7 @@ hal::PollResult CandumpPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
       char what[160];
       std::snprintf(what, sizeof what, "%s:%lld: %s", path_.c_str(), static_cast<long long>(lines_),
                     why);
-      filter_.log().log(14, frame.time_s, name(), what);
+      filter_.log().log(hal::LogReason::kDamagedLogRecord, frame.time_s, name(), what);
       continue;
     }
     if (kind != CandumpLine::kFrame) continue;

@@ -1,9 +1,11 @@
 #include "hal/ins/pose_source.hpp"
 
+#include <algorithm>
+
 namespace zonemap::hal {
 
-void RateLimitedLog::log(int reason, double now_s, const char* source, const char* what) {
-  const int r = reason < 0 || reason >= kReasons ? kReasons - 1 : reason;
+void RateLimitedLog::log(LogReason reason, double now_s, const char* source, const char* what) {
+  const int r = std::clamp(static_cast<int>(reason), 0, kReasons - 1);
   if (logged_[r] && now_s - last_s_[r] < interval_s_) {
     ++suppressed_[r];
     return;
@@ -23,7 +25,7 @@ bool InsPoseFilter::pass(InsSolution solution, PoseSink& sink, double now_s) {
   solution.time_s += time_offset_s_;
   InsRejection why{};
   if (!gate_.check(solution, &why)) {
-    log_.log(static_cast<int>(why), now_s, name_, to_string(why));
+    log_.log(gate_reason(why), now_s, name_, to_string(why));
     return false;
   }
   sink.push(camera_pose_sample(solution, body_T_camera_));

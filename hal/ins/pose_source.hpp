@@ -41,15 +41,30 @@ class PoseSource {
   virtual const char* name() const = 0;
 };
 
+// What a pose source logs, each with a rate limit of its own: the INS gate's
+// refusals (InsRejection's values, gate_reason()), then the link's own troubles.
+enum class LogReason : int {
+  kWrongWorldFrame = 12,   // a message in another world frame than the map's
+  kMalformedMessage = 13,  // fingerprint or length wrong: not decodable
+  kDamagedLogRecord = 14,  // a damaged log event or candump line, skipped
+  kLinkDown = 15,          // the bus or the LCM provider is not there (retrying)
+};
+inline constexpr int kLogReasons = 16;
+static_assert(static_cast<int>(InsRejection::kCount) <=
+              static_cast<int>(LogReason::kWrongWorldFrame));
+inline LogReason gate_reason(InsRejection why) {
+  return static_cast<LogReason>(static_cast<int>(why));
+}
+
 // At most one line per reason and interval, with the number left unsaid.
 // Allocation-free (fprintf to stderr).
 class RateLimitedLog {
  public:
   explicit RateLimitedLog(double interval_s = 1.0) : interval_s_(interval_s) {}
-  void log(int reason, double now_s, const char* source, const char* what);
+  void log(LogReason reason, double now_s, const char* source, const char* what);
 
  private:
-  static constexpr int kReasons = 16;
+  static constexpr int kReasons = kLogReasons;
   double interval_s_;
   double last_s_[kReasons] = {};
   bool logged_[kReasons] = {};

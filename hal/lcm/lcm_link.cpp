@@ -74,13 +74,13 @@ void LcmPoseSource::on_message(const lcm_recv_buf_t* rbuf, const char* /*channel
       decode_ins_state(rbuf->data, rbuf->data_size, source->world_z_up_, &solution);
   if (result == InsDecode::kMalformed) {
     ++source->malformed_;
-    source->filter_.log().log(13, source->now_s_, source->name(),
+    source->filter_.log().log(hal::LogReason::kMalformedMessage, source->now_s_, source->name(),
                               "malformed ins_state_t (fingerprint or length)");
     return;
   }
   if (result == InsDecode::kWrongFrame) {
     ++source->wrong_frame_;
-    source->filter_.log().log(12, source->now_s_, source->name(),
+    source->filter_.log().log(hal::LogReason::kWrongWorldFrame, source->now_s_, source->name(),
                               "ins_state_t in another world frame than the map's");
     return;
   }
@@ -94,7 +94,8 @@ hal::PollResult LcmPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
   now_s_ = static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
   lcm_t* lcm = subscribed(now_s_);
   if (lcm == nullptr) {
-    filter_.log().log(15, now_s_, name(), "LCM provider not started (retrying with backoff)");
+    filter_.log().log(hal::LogReason::kLinkDown, now_s_, name(),
+                      "LCM provider not started (retrying with backoff)");
     return hal::PollResult::kIdle;
   }
   sink_ = &sink;
@@ -148,7 +149,8 @@ hal::PollResult LcmLogPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
     const LcmLogRead read = reader_.next(&event);
     if (read == LcmLogRead::kEnd) return hal::PollResult::kEnd;
     if (read == LcmLogRead::kSkipped) {
-      filter_.log().log(14, last_time_s_, name(), "damaged or oversized log event skipped");
+      filter_.log().log(hal::LogReason::kDamagedLogRecord, last_time_s_, name(),
+                        "damaged or oversized log event skipped");
       continue;
     }
     const double now = static_cast<double>(event.timestamp_us) * 1e-6;
@@ -162,10 +164,12 @@ hal::PollResult LcmLogPoseSource::poll(hal::PoseSink& sink, int /*wait_ms*/) {
       filter_.pass(solution, sink, now);
     } else if (result == InsDecode::kMalformed) {
       ++malformed_;
-      filter_.log().log(13, now, name(), "malformed ins_state_t (fingerprint or length)");
+      filter_.log().log(hal::LogReason::kMalformedMessage, now, name(),
+                        "malformed ins_state_t (fingerprint or length)");
     } else {
       ++wrong_frame_;
-      filter_.log().log(12, now, name(), "ins_state_t in another world frame than the map's");
+      filter_.log().log(hal::LogReason::kWrongWorldFrame, now, name(),
+                        "ins_state_t in another world frame than the map's");
     }
   }
   return hal::PollResult::kGotData;

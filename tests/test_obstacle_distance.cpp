@@ -1,0 +1,173 @@
+// The 72-sector obstacle distances in the body frame: nearest first, unseen
+// sectors unknown, footprints tighter than boxes, the exact wedge distance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "zonemap/obstacle_distance.hpp"
+
+using namespace zonemap;
+
+namespace {
+
+ObstacleBox box(Eigen::Vector3d lo, Eigen::Vector3d hi, FeatureKind kind = FeatureKind::kObstacle) {
+  ObstacleBox b;
+  b.min = lo;
+  b.max = hi;
+  b.kind = kind;
+  return b;
+}
+
+// Brute force: the nearest point of the rectangle inside each sector's wedge, by
+// sampling the rectangle densely (an upper bound that converges to the exact value).
+double sampled_nearest(const ObstacleBox& b, const Eigen::Vector3d& p, double heading, int sector) {
+  double best = 1e9;
+  const double step = 2 * M_PI / 72;
+  for (int i = 0; i <= 150; ++i) {
+    for (int j = 0; j <= 150; ++j) {
+      const double x = b.min.x() + (b.max.x() - b.min.x()) * i / 150.0 - p.x();
+      const double y = b.min.y() + (b.max.y() - b.min.y()) * j / 150.0 - p.y();
+      // NED: clockwise from heading = atan2(east, north) - heading.
+      double a = std::atan2(y, x) - heading;
+      while (a < 0) a += 2 * M_PI;
+      while (a >= 2 * M_PI) a -= 2 * M_PI;
+      // Sector s is centred on s * step.
+      if (static_cast<int>(std::floor(a / step + 0.5)) % 72 == sector)
+        best = std::min(best, std::hypot(x, y));
+    }
+  }
+  return best;
+}
+
+SectorMask all_seen() {
+  SectorMask m;
+  m.fill(true);
+  return m;
+}
+const SectorMask kAllSeen = all_seen();
+
+}  // namespace
+
+TEST(ObstacleDistance, SectorsInTheBodyFrameNearestFirst) {
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();  // NED, heading north
+  body.translation() = Eigen::Vector3d(0, 0, -20);         // 20 m up
+  // A post 10 m ahead (north), 1 m wide, from the ground to 30 m high.
+  ObstacleBox post = box({10, -0.5, -30}, {11, 0.5, 0});
+  ObstacleDistances d = obstacle_distances(&post, 1, {}, body, false, config, kAllSeen);
+  // Sector 0 is [-2.5, 2.5) deg; the post spans +-2.86 deg: sectors 71, 0 and 1.
+  EXPECT_EQ(d.distances_cm[0], 1000);
+  EXPECT_EQ(d.distances_cm[1], 1000);
+  EXPECT_EQ(d.distances_cm[71], 1000);
+  EXPECT_EQ(d.distances_cm[36], d.max_distance_cm + 1);
+  EXPECT_EQ(d.sectors_with_obstacle, 3);
+  // Heading east: the post is now 90 deg to the left (270 deg clockwise: sector 54).
+  body.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  d = obstacle_distances(&post, 1, {}, body, false, config, kAllSeen);
+  EXPECT_EQ(d.distances_cm[54], 1000);
+  EXPECT_EQ(d.distances_cm[53], 1000);
+  EXPECT_EQ(d.distances_cm[55], 1000);
+  EXPECT_EQ(d.sectors_with_obstacle, 3);
+  EXPECT_EQ(d.distances_cm[0], d.max_distance_cm + 1);
+  // Out of the vertical band (all below 30 m under the vehicle) or ground: nothing.
+  ObstacleBox low = box({10, -0.5, 0}, {11, 0.5, 5});
+  ObstacleBox ground = box({10, -0.5, -30}, {11, 0.5, 0}, FeatureKind::kGround);
+  EXPECT_EQ(obstacle_distances(&low, 1, {}, body, false, config, kAllSeen).sectors_with_obstacle,
+            0);
+  EXPECT_EQ(obstacle_distances(&ground, 1, {}, body, false, config, kAllSeen).sectors_with_obstacle,
+            0);
+  // Inside a box's footprint: every sector blocked at the minimum distance.
+  ObstacleBox around = box({-1, -1, -25}, {1, 1, -15});
+  d = obstacle_distances(&around, 1, {}, body, false, config, kAllSeen);
+  EXPECT_EQ(d.sectors_with_obstacle, 72);
+  EXPECT_EQ(d.distances_cm[17], d.min_distance_cm);
+}
+
+TEST(ObstacleDistance, UnseenSectorsAreUnknownButRememberedObstaclesStay) {
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -20);
+  ObstacleBox behind = box({-11, -0.5, -30}, {-10, 0.5, 0});  // 10 m behind
+  SectorMask ahead_only{};
+  for (int s : {70, 71, 0, 1, 2}) ahead_only[static_cast<std::size_t>(s)] = true;
+  const ObstacleDistances d = obstacle_distances(&behind, 1, {}, body, false, config, ahead_only);
+  EXPECT_EQ(d.distances_cm[36], 1000);                  // not seen now, but remembered: an obstacle
+  EXPECT_EQ(d.distances_cm[0], d.max_distance_cm + 1);  // seen: free
+  EXPECT_EQ(d.distances_cm[18], kSectorUnknown);        // never seen: unknown, not free
+  EXPECT_EQ(d.sectors_unknown, 72 - 5 - 3);
+}
+
+TEST(ObstacleDistance, FootprintRectanglesAreTighterThanTheBox) {
+  // An L-shaped obstacle: its box covers the vehicle's right-front, its footprint
+  // only a wall 20 m ahead and a wall 20 m to the right.
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -5);
+  const ObstacleBox l = box({5, 5, -10}, {20, 20, 0});
+  const FootprintRect rects[2] = {{19, 5, 20, 20}, {5, 19, 20, 20}};
+  const std::uint32_t offsets[1] = {0}, counts[1] = {2};
+  const ObstacleDistances loose = obstacle_distances(&l, 1, {}, body, false, config, kAllSeen);
+  const ObstacleDistances tight =
+      obstacle_distances(&l, 1, {rects, offsets, counts}, body, false, config, kAllSeen);
+  // Sector 9 (45 deg, towards the box's near corner at (5, 5)).
+  EXPECT_EQ(loose.distances_cm[9], 707);
+  // The wedge's edge at 42.5 deg meets the L's inner face x = 19 at 25.77 m.
+  EXPECT_EQ(tight.distances_cm[9], 2577);
+  NearestObstacle nearest[4];
+  ASSERT_EQ(nearest_obstacles(&l, 1, {rects, offsets, counts}, body, false, config, nearest, 4),
+            1u);
+  // The nearest point of the L's prisms: (19, 5, -5) in NED = body FRD here.
+  EXPECT_NEAR(nearest[0].body_frd.x(), 19.0, 1e-9);
+  EXPECT_NEAR(nearest[0].body_frd.y(), 5.0, 1e-9);
+  EXPECT_NEAR(nearest[0].body_frd.z(), 0.0, 1e-9);
+}
+
+TEST(ObstacleDistance, NearestObstaclesInTheBodyFrameNearestFirst) {
+  SectorConfig config;
+  // NED, heading east (body x = east), 10 m up.
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  body.translation() = Eigen::Vector3d(0, 0, -10);
+  ObstacleBox boxes[3] = {box({30, -1, -15}, {31, 1, 0}),   // 30 m north: on the left
+                          box({-1, 8, -15}, {1, 9, 0}),     // 8 m east: ahead
+                          box({-1, 60, -15}, {1, 61, 0})};  // beyond max distance
+  boxes[0].id = 7;
+  boxes[1].id = 9;
+  NearestObstacle out[8];
+  ASSERT_EQ(nearest_obstacles(boxes, 3, {}, body, false, config, out, 8), 2u);
+  EXPECT_EQ(out[0].id, 9u);
+  EXPECT_NEAR(out[0].body_frd.x(), 8.0, 1e-9);  // forward
+  EXPECT_NEAR(out[0].body_frd.y(), 0.0, 1e-9);
+  EXPECT_EQ(out[1].id, 7u);
+  EXPECT_NEAR(out[1].body_frd.x(), 0.0, 1e-9);
+  EXPECT_NEAR(out[1].body_frd.y(), -30.0, 1e-9);  // left = negative right
+  ASSERT_EQ(nearest_obstacles(boxes, 3, {}, body, false, config, out, 1), 1u);
+  EXPECT_EQ(out[0].id, 9u);  // capacity 1 keeps the nearest
+}
+
+TEST(ObstacleDistance, ExactWedgeDistanceAgreesWithDenseSampling) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-30.0, 30.0), size(0.2, 8.0), angle(-M_PI, M_PI);
+  SectorConfig config;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d lo(u(rng), u(rng), -10.0);
+    const ObstacleBox b = box(lo, lo + Eigen::Vector3d(size(rng), size(rng), 10.0));
+    if (std::abs(b.min.x()) < 9 && std::abs(b.min.y()) < 9) continue;
+    const double heading = angle(rng);
+    Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+    body.linear() = Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    body.translation() = Eigen::Vector3d(0, 0, -5);
+    const ObstacleDistances d = obstacle_distances(&b, 1, {}, body, false, config, kAllSeen);
+    for (int s = 0; s < 72; ++s) {
+      const double sampled = sampled_nearest(b, body.translation(), heading, s);
+      if (sampled > config.max_distance_m) {
+        // Sampling may miss a sliver; exact may still see it, never farther than 5 cm.
+        continue;
+      }
+      ASSERT_LT(d.distances_cm[s], d.max_distance_cm + 1) << "trial " << trial << " sector " << s;
+      EXPECT_LE(d.distances_cm[s], sampled * 100.0 + 1.0) << "trial " << trial << " sector " << s;
+      EXPECT_GE(d.distances_cm[s], sampled * 100.0 - 15.0) << "trial " << trial << " sector " << s;
+    }
+  }
+}

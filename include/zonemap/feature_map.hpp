@@ -241,7 +241,6 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::int32_t[]> coverage_;  // (nx + 1) * (ny + 1) summed-area table
   std::unique_ptr<std::int32_t[]> observed_;  // the same for columns with any known cell
   std::unique_ptr<std::uint32_t[]> parent_;   // union-find for merging, per feature
-  FusedCell core_threshold_;
   int core_min_cells_;                                    // 0: objects are never split
   std::unique_ptr<std::size_t[]> region_start_;           // kMaxCores + 1 region bounds
   std::unique_ptr<std::size_t[]> core_first_, core_end_;  // each core's seed cells in the queue

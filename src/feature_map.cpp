@@ -321,7 +321,7 @@ std::size_t FeatureMap::split_at_valleys(const ZoneSnapshot& zone, std::size_t c
   if (cores <= 1) return 1;
   // Each cell then goes to the core nearest in x-y: a region's growth along the
   // low band that joins neighbours would otherwise reach far under them.
-  label_columns_by_nearest_core(zone, count, queue, cores);
+  label_columns_by_nearest_core(count, queue, cores);
   sort_by_column_label(count, cores);
   // Two faces of one solid thing (a hut seen from both sides, its inside never
   // seen) are cores too; their regions' x-y boxes overlap mostly, those of
@@ -375,8 +375,8 @@ bool FeatureMap::merge_overlapping_regions(std::uint32_t cores) {
   return true;
 }
 
-void FeatureMap::label_columns_by_nearest_core(const ZoneSnapshot& zone, std::size_t count,
-                                               const std::uint32_t* queue, std::uint32_t cores) {
+void FeatureMap::label_columns_by_nearest_core(std::size_t count, const std::uint32_t* queue,
+                                               std::uint32_t cores) {
   const int nx = dims_[0];
   CellIndex lo{cell_x(component_[0]), cell_y(component_[0]), 0};
   CellIndex hi = lo;
@@ -415,7 +415,6 @@ void FeatureMap::label_columns_by_nearest_core(const ZoneSnapshot& zone, std::si
     visit(x, y - 1);
     visit(x, y + 1);
   }
-  static_cast<void>(zone);
 }
 
 void FeatureMap::sort_by_column_label(std::size_t count, std::uint32_t cores) {

@@ -171,8 +171,8 @@ class FeatureMap : public ZoneObserver {
                         std::size_t tail, int level, std::uint32_t* cores);
   // Every column of the component's x-y box gets the label of the core nearest
   // to it (column_tmp_); the component's cells are then sorted by it into regions.
-  void label_columns_by_nearest_core(const ZoneSnapshot& zone, std::size_t count,
-                                     const std::uint32_t* queue, std::uint32_t cores);
+  void label_columns_by_nearest_core(std::size_t count, const std::uint32_t* queue,
+                                     std::uint32_t cores);
   void sort_by_column_label(std::size_t count, std::uint32_t cores);
   // Regions (sorted) whose x-y boxes overlap by more than half of the smaller are
   // one object: their columns get one label; true when any were joined.
@@ -238,11 +238,11 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::int16_t[]> lowest_;      // per column: lowest occupied height, or -1
   std::unique_ptr<std::int16_t[]> terrain_;     // per column: terrain height, or -1
   std::unique_ptr<std::int16_t[]> column_tmp_;
-  std::unique_ptr<std::int32_t[]> coverage_;  // (nx + 1) * (ny + 1) summed-area table
-  std::unique_ptr<std::int32_t[]> observed_;  // the same for columns with any known cell
-  std::unique_ptr<std::uint32_t[]> parent_;   // union-find for merging, per feature
-  int core_min_cells_;                                    // 0: objects are never split
-  std::unique_ptr<std::size_t[]> region_start_;           // kMaxCores + 1 region bounds
+  std::unique_ptr<std::int32_t[]> coverage_;     // (nx + 1) * (ny + 1) summed-area table
+  std::unique_ptr<std::int32_t[]> observed_;     // the same for columns with any known cell
+  std::unique_ptr<std::uint32_t[]> parent_;      // union-find for merging, per feature
+  int core_min_cells_;                           // 0: objects are never split
+  std::unique_ptr<std::size_t[]> region_start_;  // kMaxCores + 1 region bounds
   std::unique_ptr<std::size_t[]> core_first_, core_end_;  // each core's seed cells in the queue
   std::unique_ptr<std::uint32_t[]> column_queue_;         // nx * ny
   struct RegionBox {

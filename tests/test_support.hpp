@@ -1,6 +1,9 @@
 // Helpers shared by the tests: temporary directories and small generated flights.
 #pragma once
 
+#include <unistd.h>
+
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -56,6 +59,56 @@ inline std::string source_path(const std::string& relative) {
   return std::string(ZONEMAP_SOURCE_DIR) + "/" + relative;
 }
 
+// Where generated flights are kept for the other test processes of the same
+// build: beside the test binary, under its modification time, so that a rebuilt
+// binary (perhaps a changed simulator) never reads an older render. "" when the
+// binary cannot be found (the flights are then rendered each time).
+inline std::filesystem::path scenario_cache_root() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  const auto stamp = std::filesystem::last_write_time(exe, ec);
+  if (ec) return {};
+  return exe.parent_path() / "scenario-cache" /
+         (exe.filename().string() + "-" +
+          std::to_string(static_cast<std::uint64_t>(stamp.time_since_epoch().count())));
+}
+
+// Removes the renders of this binary's earlier builds (never the current one's,
+// which another test process may be writing).
+inline void remove_older_renders(const std::filesystem::path& root) {
+  std::error_code ec;
+  const std::string binary = root.filename().string();
+  const std::string prefix = binary.substr(0, binary.rfind('-') + 1);
+  for (const auto& entry : std::filesystem::directory_iterator(root.parent_path(), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name != binary && name.rfind(prefix, 0) == 0) std::filesystem::remove_all(entry, ec);
+  }
+}
+
+// Renders into `dir` through the cache: a flight is rendered once per build (into
+// a private directory renamed into place, so racing test processes never see half
+// of one) and copied into each test's own directory, which the test may change.
+template <typename Render>
+bool render_through_cache(const std::string& key, const std::string& dir, Render render) {
+  const std::filesystem::path root = scenario_cache_root();
+  if (root.empty()) return render(dir);
+  const std::filesystem::path entry = root / key;
+  std::error_code ec;
+  if (!std::filesystem::exists(entry, ec)) {
+    if (std::filesystem::create_directories(root, ec)) remove_older_renders(root);
+    const std::filesystem::path own = root / (key + ".rendering-" + std::to_string(getpid()));
+    if (!render(own.string())) {
+      std::filesystem::remove_all(own, ec);
+      return false;
+    }
+    std::filesystem::rename(own, entry, ec);
+    if (ec) std::filesystem::remove_all(own, ec);  // another process was first: same bytes
+  }
+  std::filesystem::copy(entry, dir, std::filesystem::copy_options::recursive, ec);
+  return !ec;
+}
+
 // Writes a generated scenario with the paper's camera (640x480: its focal length
 // sets Δd of eq. 1, so smaller images would mean a worse sensor) at a low frame
 // rate, plus a copy of its config that maps every `pixel_step`-th pixel to keep
@@ -71,18 +124,21 @@ inline std::string write_test_scenario(const std::string& name, const std::strin
   if (max_frames > 0 && scenario.trajectory.size() > max_frames) {
     scenario.trajectory.resize(max_frames);
   }
-  if (!sim::write_sequence(dir, scenario.scene, scenario.camera, scenario.trajectory,
-                           sim::RenderOptions{}, &error)) {
-    return "";
-  }
+  const std::string key = name + "-" + std::to_string(rate_hz) + "hz-" +
+                          std::to_string(scenario.trajectory.size()) + "frames";
+  const bool rendered = render_through_cache(key, dir, [&](const std::string& into) {
+    return sim::write_sequence(into, scenario.scene, scenario.camera, scenario.trajectory,
+                               sim::RenderOptions{}, &error);
+  });
+  if (!rendered) return "";
   std::ifstream in(source_path(scenario.config));
   std::stringstream text;
   text << in.rdbuf();
   std::string config = text.str();
-  const std::string key = "pixel_step: 1";
-  const auto at = config.find(key);
+  const std::string step_key = "pixel_step: 1";
+  const auto at = config.find(step_key);
   if (at == std::string::npos) return "";
-  config.replace(at, key.size(), "pixel_step: " + std::to_string(pixel_step));
+  config.replace(at, step_key.size(), "pixel_step: " + std::to_string(pixel_step));
   const std::string path = dir + "/test-config.yaml";
   std::ofstream(path) << config;
   return path;

@@ -59,7 +59,28 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       column_queue_(new std::uint32_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       region_box_(new RegionBox[kMaxCores]()),
       region_root_(new std::uint16_t[kMaxCores]()),
-      scratch_(config.zone_cells) {}
+      scratch_(config.zone_cells),
+      d_max_m_(config.d_max_m) {}
+
+void FeatureMap::set_camera(const CameraModel& camera) {
+  camera_ = camera;
+}
+
+bool FeatureMap::in_view(const CellIndex& min, const CellIndex& max) const {
+  if (!view_known_ || camera_.width <= 0) return true;
+  const Eigen::Vector3d lo = Eigen::Vector3d(min.x, min.y, min.z) * cell_size_m_;
+  const Eigen::Vector3d size =
+      Eigen::Vector3d(max.x - min.x + 1, max.y - min.y + 1, max.z - min.z + 1) * cell_size_m_;
+  for (int i = 0; i < 27; ++i) {
+    const Eigen::Vector3d at(i % 3, (i / 3) % 3, i / 9);
+    const Eigen::Vector3d c = camera_T_world_ * (lo + size.cwiseProduct(at) * 0.5);
+    if (c.z() <= 0.0 || c.norm() > d_max_m_) continue;
+    const double u = camera_.fx * c.x() / c.z() + camera_.cx;
+    const double v = camera_.fy * c.y() / c.z() + camera_.cy;
+    if (u >= 0.0 && v >= 0.0 && u < camera_.width && v < camera_.height) return true;
+  }
+  return false;
+}
 
 std::size_t FeatureMap::reserved_bytes() const {
   const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
@@ -540,6 +561,7 @@ void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& 
     if (match == nullptr) return;
     match->id = next_id_++;
     match->first_seen_s = time_s_;
+    match->last_seen_s = time_s_;
     match->in_use = true;
     ++in_use_;
     ++counters_.features_added;
@@ -552,7 +574,7 @@ void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& 
   match->min = min;
   match->max = max;
   match->cells = cells;
-  match->last_seen_s = time_s_;
+  if (in_view(min, max)) match->last_seen_s = time_s_;
   match->stale = false;
   match->has_shape = shapes_.build(footprint_.get(), max.x - min.x + 1, max.y - min.y + 1,
                                    &match->shape, &match->shape_side);
@@ -631,6 +653,8 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
       ObstacleBox box;
       box.kind = kind;
       box.id = root.id;
+      box.first_seen_s = root.first_seen_s;
+      box.last_seen_s = root.last_seen_s;
       CellIndex lo = root.min;
       CellIndex hi = root.max;
       const std::size_t first_rect = footprints != nullptr ? footprints->used : 0;
@@ -644,6 +668,8 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
         lo = {std::min(lo.x, f.min.x), std::min(lo.y, f.min.y), std::min(lo.z, f.min.z)};
         hi = {std::max(hi.x, f.max.x), std::max(hi.y, f.max.y), std::max(hi.z, f.max.z)};
         box.id = std::min(box.id, f.id);
+        box.first_seen_s = std::min(box.first_seen_s, f.first_seen_s);
+        box.last_seen_s = std::max(box.last_seen_s, f.last_seen_s);
         box.cells += f.cells;
         ++box.parts;
       }

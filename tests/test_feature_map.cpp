@@ -228,6 +228,41 @@ TEST(FeatureExtraction, ReExtractionUpdatesInsteadOfDuplicating) {
   EXPECT_EQ(map.shapes().groups_free(), map.shapes().groups_total());
 }
 
+TEST(FeatureExtraction, LastSeenMovesOnlyWhileTheObjectIsInView) {
+  const std::array<int, 3> dims = {20, 20, 6};
+  MapConfig config = feature_config(dims, false);
+  config.d_max_m = 30.0;
+  FeatureMap map(config, true);
+  CameraModel camera;
+  camera.width = 64;
+  camera.height = 48;
+  camera.fx = camera.fy = 40.0;
+  camera.cx = 31.5;
+  camera.cy = 23.5;
+  map.set_camera(camera);
+  TestZone zone(dims, {0, 0, 0});
+  for (int x = 14; x <= 16; ++x) zone.set(x, 10, 2);  // 14-17 m along x
+  const Eigen::Vector3d from(2.0, 10.5, 2.5);
+  map.set_context(1.0, sim::look_pose(from, 0.0, 0.0));  // looking at it along +x
+  map.extract(zone.view);
+  ASSERT_EQ(map.count(), 1u);
+  EXPECT_EQ(map.begin()->last_seen_s, 1.0);
+  map.set_context(2.0, sim::look_pose(from, 3.14159, 0.0));  // turned away
+  map.extract(zone.view);
+  const Feature* f = features_of(map, FeatureKind::kObstacle)[0];
+  EXPECT_EQ(f->last_seen_s, 1.0) << "still held, not seen";
+  map.set_context(3.0, sim::look_pose(from, 0.1, 0.0));  // its edge of the image
+  map.extract(zone.view);
+  EXPECT_EQ(f->last_seen_s, 3.0);
+  map.set_context(4.0, sim::look_pose(Eigen::Vector3d(-20.0, 10.5, 2.5), 0.0, 0.0));
+  map.extract(zone.view);
+  EXPECT_EQ(f->last_seen_s, 3.0) << "beyond d_max";
+  ObstacleBox box;
+  ASSERT_EQ(map.merged(&box, 1, false), 1u);
+  EXPECT_EQ(box.first_seen_s, 1.0);
+  EXPECT_EQ(box.last_seen_s, 3.0);
+}
+
 TEST(FeatureExtraction, SmallObjectsAreCountedAsNoise) {
   const std::array<int, 3> dims = {10, 10, 6};
   MapConfig config = feature_config(dims, false);

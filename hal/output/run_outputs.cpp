@@ -202,12 +202,12 @@ bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::siz
     *error = path + ": cannot create";
     return false;
   }
-  std::fprintf(f, "id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells\n");
+  std::fprintf(f, "id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells,last_seen_s\n");
   for (std::size_t i = 0; i < count; ++i) {
     const ObstacleBox& b = boxes[i];
-    std::fprintf(f, "%u,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d\n", b.id,
+    std::fprintf(f, "%u,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%.3f\n", b.id,
                  b.kind == FeatureKind::kObstacle ? "obstacle" : "ground", b.min.x(), b.min.y(),
-                 b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells);
+                 b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells, b.last_seen_s);
   }
   if (std::fclose(f) != 0) {
     *error = path + ": write failed";

@@ -77,7 +77,7 @@ struct RunStats {
   std::vector<std::pair<std::string, std::int64_t>> stereo;
 };
 
-// boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells
+// boxes.csv (FORMATS.md §2): id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells,last_seen_s
 bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::size_t count,
                      std::string* error);
 

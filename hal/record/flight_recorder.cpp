@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "hal/record/foxglove_json.hpp"
 #include "zonemap/mapper.hpp"
@@ -424,6 +425,10 @@ void FlightRecorder::Impl::write_boxes(const BoxSlot& slot) {
     j.begin_object().key("key").string("cells").key("value").string(std::to_string(b.cells));
     j.end_object();
     j.begin_object().key("key").string("parts").key("value").string(std::to_string(b.parts));
+    j.end_object();
+    char seen[32];
+    std::snprintf(seen, sizeof(seen), "%.3f", b.last_seen_s);
+    j.begin_object().key("key").string("last_seen_s").key("value").string(seen);
     j.end_object();
     j.end_array();
     j.key("cubes").begin_array().begin_object();

@@ -152,7 +152,8 @@ struct Pipeline::Impl {
     ZoneKey zone;                  // kAllocated
     std::uint64_t allocation = 0;  // kAllocated: its number
     double time_s = 0.0;           // the feature map's context (stamps, relevance)
-    double vehicle[3] = {0.0, 0.0, 0.0};
+    double camera_rotation[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};  // world_T_camera
+    double camera_position[3] = {0.0, 0.0, 0.0};  // (copied exactly: stamps equal one thread's)
   };
   // Extraction -> mapping: the boxes to re-integrate into an allocated zone, then
   // a marker saying that allocation is answered.
@@ -172,7 +173,7 @@ struct Pipeline::Impl {
   FusedCell reintegration_value;
   // Mapping-thread state for the feed below.
   double context_time_s = 0.0;
-  Eigen::Vector3d context_vehicle = Eigen::Vector3d::Zero();
+  Eigen::Isometry3d context_pose = Eigen::Isometry3d::Identity();
   std::uint64_t allocations_sent = 0, allocations_answered = 0;
 
   // Takes the feature map's place among the zone observers during run().
@@ -415,7 +416,8 @@ struct Pipeline::Impl {
     ExtractionJob job;
     job.kind = kind;
     job.time_s = context_time_s;
-    for (int i = 0; i < 3; ++i) job.vehicle[i] = context_vehicle[i];
+    Eigen::Map<Eigen::Matrix3d>(job.camera_rotation) = context_pose.linear();
+    Eigen::Map<Eigen::Vector3d>(job.camera_position) = context_pose.translation();
     return job;
   }
 
@@ -497,6 +499,13 @@ struct Pipeline::Impl {
 
   // --- the extraction thread ---------------------------------------------------
 
+  static Eigen::Isometry3d job_camera_pose(const ExtractionJob& job) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Map<const Eigen::Matrix3d>(job.camera_rotation);
+    pose.translation() = Eigen::Map<const Eigen::Vector3d>(job.camera_position);
+    return pose;
+  }
+
   void extraction() {
     PipelineStats& s = extraction_stats;
     realtime(options.priority_extraction, options.cpu_extraction, &s, "extraction");
@@ -505,8 +514,7 @@ struct Pipeline::Impl {
       ExtractionJob job;
       pop_waiting(jobs, &job, extraction_bell);
       if (job.kind == ExtractionJob::Kind::kEnd) break;
-      features.set_context(job.time_s,
-                           Eigen::Vector3d(job.vehicle[0], job.vehicle[1], job.vehicle[2]));
+      features.set_context(job.time_s, job_camera_pose(job));
       switch (job.kind) {
         case ExtractionJob::Kind::kExtract: {
           const Clock::time_point start = Clock::now();
@@ -588,7 +596,7 @@ struct Pipeline::Impl {
       DepthFrameView view{frame.depth.data(), frame.has_left ? frame.left.data() : nullptr,
                           mapper.camera().width, mapper.camera().height};
       context_time_s = frame.time_s;
-      context_vehicle = pose.translation();
+      context_pose = pose;
       const double frame_time = frame.time_s;
       const FrameReport report = mapper.integrate(view, pose);
       if (report.status == FrameStatus::kMapped) hooks.frame_mapped(frame, pose);

@@ -11,7 +11,9 @@
 #include <memory>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
+#include "zonemap/camera.hpp"
 #include "zonemap/cell.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/quadtree.hpp"
@@ -30,6 +32,8 @@ struct Feature {
   CellIndex max;
   std::int32_t cells = 0;  // occupied cells it was made of
   double first_seen_s = 0.0;
+  // The last extraction that found it while some of it stood in the camera's view
+  // (within d_max); a feature whose cells are later seen free is removed instead.
   double last_seen_s = 0.0;
   QuadNode shape;  // footprint over [min.x, min.x + shape_side) x [min.y, min.y + shape_side)
   int shape_side = 0;
@@ -45,7 +49,9 @@ struct ObstacleBox {
   Eigen::Vector3d min = Eigen::Vector3d::Zero();  // world metres
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
   std::int32_t cells = 0;
-  std::int32_t parts = 0;  // per-zone features merged into it
+  std::int32_t parts = 0;     // per-zone features merged into it
+  double first_seen_s = 0.0;  // earliest of its features
+  double last_seen_s = 0.0;   // latest of its features (Feature::last_seen_s)
 };
 
 // Footprint of a merged box for the outputs: the full squares of its features'
@@ -80,10 +86,21 @@ class FeatureMap : public ZoneObserver {
   // world_z_up: false when the world frame is NED (height = -z).
   FeatureMap(const MapConfig& config, bool world_z_up);
 
+  // The camera whose view decides last-seen stamps. Without it (or without a
+  // camera pose in the context) every extraction that finds a feature sees it.
+  void set_camera(const CameraModel& camera);
   // Time and vehicle position for first/last-seen stamps and relevance.
   void set_context(double time_s, const Eigen::Vector3d& vehicle_m) {
     time_s_ = time_s;
     vehicle_m_ = vehicle_m;
+    view_known_ = false;
+  }
+  // The same with the camera's pose (its position is the vehicle's).
+  void set_context(double time_s, const Eigen::Isometry3d& world_T_camera) {
+    time_s_ = time_s;
+    vehicle_m_ = world_T_camera.translation();
+    camera_T_world_ = world_T_camera.inverse();
+    view_known_ = true;
   }
 
   // Extracts the features of a zone that holds a grid: its previous features are
@@ -152,6 +169,10 @@ class FeatureMap : public ZoneObserver {
   void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells);
   double relevance(const Feature& f) const;
+  // Whether part of the box of world cells [min, max] is in the camera's view:
+  // one of its corners, edge middles, face centres or centre projects into the
+  // image within d_max.
+  bool in_view(const CellIndex& min, const CellIndex& max) const;
   bool append_footprint(const Feature& f, FootprintOutput* out) const;
   Feature* free_slot(double new_relevance);
   void remove(Feature* f);
@@ -254,6 +275,10 @@ class FeatureMap : public ZoneObserver {
 
   double time_s_ = 0.0;
   Eigen::Vector3d vehicle_m_ = Eigen::Vector3d::Zero();
+  double d_max_m_;
+  CameraModel camera_;  // width 0: not set
+  Eigen::Isometry3d camera_T_world_ = Eigen::Isometry3d::Identity();
+  bool view_known_ = false;
   FeatureCounters counters_;
 };
 

@@ -106,6 +106,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
 
   mapper_ = std::make_unique<Mapper>(map_config_, camera_);
   features_ = std::make_unique<FeatureMap>(map_config_, z_up);
+  features_->set_camera(camera_);
   mapper_->zones().add_observer(features_.get());
   const std::size_t max_boxes = features_->capacity();
   if (config.can_output) {

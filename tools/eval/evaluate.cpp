@@ -54,6 +54,7 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
         throw YAML::Exception(o.Mark(), "unknown object type '" + type + "'");
       }
       if (o["pixel_hits"]) t.pixel_hits = o["pixel_hits"].as<std::int64_t>();
+      t.moving = o["moving"].as<bool>(false);
       objects->push_back(t);
     }
   } catch (const YAML::BadFile&) {
@@ -146,6 +147,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
     ObjectResult r;
     r.name = o.name;
     r.seen = o.pixel_hits < 0 || o.pixel_hits >= kSeenPixelHits;
+    r.moving = o.moving;
     double best = INFINITY;
     Eigen::Vector3d union_min = Eigen::Vector3d::Constant(INFINITY);
     Eigen::Vector3d union_max = Eigen::Vector3d::Constant(-INFINITY);
@@ -180,7 +182,9 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
           std::min(o.max.z(), union_max.z()) - std::max(o.min.z(), union_min.z());
       r.z_coverage = height > 0.0 ? std::clamp(covered / height, 0.0, 1.0) : 1.0;
     }
-    if (r.seen) {
+    if (r.moving) {
+      ++e.moving_objects;
+    } else if (r.seen) {
       ++e.objects_seen;
       if (r.detected) {
         ++e.objects_found;
@@ -223,7 +227,8 @@ std::string to_json(const Evaluation& e) {
       << ",\n  \"boxes_touching_no_object\": " << e.boxes_touching_no_object
       << ",\n  \"false_box_fraction\": " << e.false_box_fraction
       << ",\n  \"objects_seen\": " << e.objects_seen
-      << ",\n  \"objects_found\": " << e.objects_found << ",\n  \"separated\": " << e.separated
+      << ",\n  \"objects_found\": " << e.objects_found
+      << ",\n  \"moving_objects\": " << e.moving_objects << ",\n  \"separated\": " << e.separated
       << ",\n  \"excess_m\": {\"median\": " << e.excess_median_m << ", \"max\": " << e.excess_max_m
       << "}"
       << ",\n  \"purity\": " << e.purity
@@ -233,13 +238,14 @@ std::string to_json(const Evaluation& e) {
   for (std::size_t i = 0; i < e.objects.size(); ++i) {
     const ObjectResult& r = e.objects[i];
     std::snprintf(buf, sizeof(buf),
-                  "%s\n    {\"name\": \"%s\", \"seen\": %s, \"detected\": %s, \"box_id\": %u, "
+                  "%s\n    {\"name\": \"%s\", \"seen\": %s, \"moving\": %s, \"detected\": %s, "
+                  "\"box_id\": %u, "
                   "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f], \"boxes\": %d, "
                   "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f}",
                   i ? "," : "", r.name.c_str(), r.seen ? "true" : "false",
-                  r.detected ? "true" : "false", r.box_id, r.centre_error_xy_m, r.box_centre.x(),
-                  r.box_centre.y(), r.boxes, r.separated ? "true" : "false", r.excess_m,
-                  r.z_coverage);
+                  r.moving ? "true" : "false", r.detected ? "true" : "false", r.box_id,
+                  r.centre_error_xy_m, r.box_centre.x(), r.box_centre.y(), r.boxes,
+                  r.separated ? "true" : "false", r.excess_m, r.z_coverage);
     out << buf;
   }
   out << "\n  ]\n}\n";
@@ -254,8 +260,9 @@ std::string to_table(const Evaluation& e) {
   out << buf;
   for (const ObjectResult& r : e.objects) {
     std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %6.0f%%\n",
-                  r.name.c_str(), r.seen ? "yes" : "no", r.detected ? "yes" : "NO", r.box_id,
-                  r.centre_error_xy_m, r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m,
+                  r.name.c_str(), r.moving ? "moved" : (r.seen ? "yes" : "no"),
+                  r.detected ? "yes" : "NO", r.box_id, r.centre_error_xy_m,
+                  r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m,
                   100.0 * r.z_coverage);
     out << buf;
   }
@@ -267,6 +274,13 @@ std::string to_table(const Evaluation& e) {
                 e.excess_median_m, e.excess_max_m, 100.0 * e.purity, 100.0 * e.z_coverage_median,
                 100.0 * e.z_coverage_min, e.obstacle_boxes, e.boxes_touching_no_object);
   out << buf;
+  if (e.moving_objects > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "%d moving object(s): counted where they are at the end; boxes left where they "
+                  "were are false\n",
+                  e.moving_objects);
+    out << buf;
+  }
   return out.str();
 }
 

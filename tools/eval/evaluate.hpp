@@ -2,7 +2,8 @@
 // (objects.yaml), as a planner needs them: every object the camera saw found
 // (recall), each in a box of its own (separated), boxes tight around it (excess,
 // purity), down to the ground (z coverage), and no box where nothing is (false
-// boxes). A box holding twelve objects is one detection that separates none.
+// boxes). A box holding twelve objects is one detection that separates none. A
+// moving object counts where it is at the end: boxes left where it was are false.
 // Used by zonemap-eval and by the scenario regression tests.
 #pragma once
 
@@ -22,6 +23,7 @@ struct TruthObject {
   bool cylinder = false;
   double radius = 0.0;
   std::int64_t pixel_hits = -1;  // objects.yaml's count of depth pixels on it; -1: not given
+  bool moving = false;           // given where it is at the end of the flight
   // Horizontal distance from (x, y) to the object's footprint (0 inside).
   double distance_xy(double x, double y) const;
 };
@@ -40,7 +42,8 @@ struct RunBox {
 
 struct ObjectResult {
   std::string name;
-  bool seen = true;  // pixel_hits >= kSeenPixelHits (or not given)
+  bool seen = true;     // pixel_hits >= kSeenPixelHits (or not given)
+  bool moving = false;  // judged only by the false boxes it leaves where it was
   bool detected = false;
   unsigned box_id = 0;
   double centre_error_xy_m = 0.0;
@@ -55,7 +58,8 @@ struct Evaluation {
   std::vector<ObjectResult> objects;
   int obstacle_boxes = 0;
   int boxes_touching_no_object = 0;  // false boxes
-  int objects_seen = 0, objects_found = 0;
+  int objects_seen = 0, objects_found = 0;  // standing objects (moving ones apart)
+  int moving_objects = 0;
   double recall = 0.0;  // found / seen
   double false_box_fraction = 0.0;
   double separated = 0.0;  // of the objects found

@@ -97,6 +97,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
 
   mapper_ = std::make_unique<Mapper>(config_, sequence_.camera());
   features_ = std::make_unique<FeatureMap>(config_, sequence_.camera().world_z_up);
+  features_->set_camera(sequence_.camera());
   mapper_->zones().add_observer(features_.get());
 
   // The height profile covers every zone the flight can touch: the trajectory's
@@ -255,7 +256,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     const auto start = std::chrono::steady_clock::now();
     {
       os::AllocationScope scope;
-      features_->set_context(frame.time_s, pose.translation());
+      features_->set_context(frame.time_s, pose);
       report = mapper_->integrate(view, pose);
       const os::AllocationCounts counted = scope.counted();
       stats_.heap_allocations_after_init += counted.allocations;

@@ -182,6 +182,15 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
   }
 }
 
+Scene Scene::at(double time_s) const {
+  Scene moved = *this;
+  for (Box& b : moved.boxes) {
+    b.min += b.velocity_mps * time_s;
+    b.max += b.velocity_mps * time_s;
+  }
+  return moved;
+}
+
 bool write_objects_yaml(const std::string& path, const Scene& scene,
                         const std::vector<std::int64_t>& hits, std::string* error) {
   std::ofstream out(path);
@@ -205,10 +214,11 @@ bool write_objects_yaml(const std::string& path, const Scene& scene,
     std::snprintf(
         line, sizeof(line),
         "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f], "
-        "pixel_hits: %lld}\n",
+        "pixel_hits: %lld%s}\n",
         b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z(),
         static_cast<long long>(
-            hits[scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data())]));
+            hits[scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data())]),
+        b.moving() ? ", moving: true" : "");
     out << line;
   }
   if (scene.boxes.empty() && scene.cylinders.empty()) out << "  []\n";
@@ -255,7 +265,8 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
   std::vector<std::int64_t> hits(scene.cylinders.size() + scene.boxes.size(), 0);
   for (std::size_t f = 0; f < trajectory.size(); ++f) {
     const TimedPose& p = trajectory[f];
-    render(scene, camera, p.world_T_camera, options, rng, depth.data(), left.data(), &hits);
+    render(scene.at(p.time_s), camera, p.world_T_camera, options, rng, depth.data(), left.data(),
+           &hits);
     std::snprintf(name, sizeof(name), "%06zu.png", f);
     if (!hal::write_png_gray16((fs::path(dir) / "depth" / name).string(), camera.width,
                                camera.height, depth.data(), error) ||
@@ -277,7 +288,9 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
     *error = dir + ": cannot write the frame lists";
     return false;
   }
-  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene, hits, error);
+  const double end_s = trajectory.empty() ? 0.0 : trajectory.back().time_s;
+  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene.at(end_s), hits,
+                            error);
 }
 
 }  // namespace zonemap::sim

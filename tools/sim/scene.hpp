@@ -16,8 +16,10 @@ namespace zonemap::sim {
 
 struct Box {
   std::string name;
-  Eigen::Vector3d min;
+  Eigen::Vector3d min;  // where it stands at time 0
   Eigen::Vector3d max;
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // a moving object (a car)
+  bool moving() const { return !velocity_mps.isZero(); }
 };
 
 struct Cylinder {
@@ -33,6 +35,8 @@ struct Scene {
   double ground_z = 0.0;
   std::vector<Box> boxes;
   std::vector<Cylinder> cylinders;
+  // The scene at time t: each moving box moved along its velocity.
+  Scene at(double time_s) const;
 };
 
 struct TimedPose {
@@ -85,7 +89,8 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
             std::vector<std::int64_t>* object_hits = nullptr);
 
 // Writes a whole sequence directory (camera.yaml, depth.txt, depth/, left.txt,
-// left/, groundtruth.txt, objects.yaml).
+// left/, groundtruth.txt, objects.yaml). Each frame shows the scene at its time;
+// objects.yaml gives a moving object where it is at the last frame.
 bool write_sequence(const std::string& dir, const Scene& scene, const CameraModel& camera,
                     const std::vector<TimedPose>& trajectory, const RenderOptions& options,
                     std::string* error);

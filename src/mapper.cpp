@@ -206,6 +206,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   const CellIndex origin = zones_.environment_origin(camera_cell, camera_.world_z_up);
   report.zones_allocated = zones_.move_environment(origin);
   local_.reset(origin);
+  sample_hits_below(frame, world_T_camera, origin, &report);
 
   // Ray geometry in grid units relative to the local grid's minimum corner.
   // Subtract in double first so that large world coordinates keep their precision.
@@ -314,6 +315,29 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
 
   finish_and_fuse(start, world_T_camera);
   return report;
+}
+
+void Mapper::sample_hits_below(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,
+                               const CellIndex& origin, FrameReport* report) const {
+  const double cell = config_.cell_size_m;
+  // z up: the bottom face is the environment's lowest z; NED: its highest. A
+  // measurement counts as under it one cell past it (stereo noise straddles a
+  // ground that lies just on the face).
+  const double bottom_m = camera_.world_z_up ? (origin.z - 1) * cell
+                                             : (origin.z + config_.zone_cells[2] + 1) * cell;
+  const double to_m = 1.0 / camera_.depth_scale;
+  for (int v = kBelowSampleStep / 2; v < frame.height; v += kBelowSampleStep) {
+    for (int u = kBelowSampleStep / 2; u < frame.width; u += kBelowSampleStep) {
+      const double d = frame.depth[static_cast<std::size_t>(v) * frame.width + u] * to_m;
+      if (d < config_.d_min_m || d > config_.d_max_m) continue;  // (0: no measurement)
+      const Eigen::Vector3d end =
+          world_T_camera *
+          Eigen::Vector3d((u - camera_.cx) / camera_.fx * d, (v - camera_.cy) / camera_.fy * d, d);
+      ++report->sampled_hits;
+      const bool below = camera_.world_z_up ? end.z() < bottom_m : end.z() > bottom_m;
+      report->sampled_hits_below_environment += below ? 1 : 0;
+    }
+  }
 }
 
 void Mapper::finish_and_fuse(const Eigen::Vector3f& camera_cells,

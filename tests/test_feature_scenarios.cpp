@@ -124,5 +124,44 @@ TEST(FeatureScenarios, OutAndBackKeepsEveryObstacle) {
   EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
 }
 
+// A car stands in the field for the first 3 s, then drives away: mapped while it
+// stands (in its own box, down to the ground), forgotten once its place is seen
+// free. The same car parked for the whole flight stays found.
+TEST(FeatureScenarios, ACarThatDrivesOffIsForgottenAndAParkedOneKept) {
+  const ScenarioRun parked = map_and_evaluate("parked-car", 5.0, 4);
+  EXPECT_EQ(parked.evaluation.recall, 1.0) << "the car, the post and the shed";
+  EXPECT_EQ(parked.evaluation.boxes_touching_no_object, 0);
+
+  TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string config = testing::write_test_scenario("crossing-car", sequence, 5.0, 4);
+  tools::ReplayRun run;
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
+  std::string error;
+  ASSERT_TRUE(run.open(options, &error)) << error;
+  run.run_frames(0, 15);  // 0-2.8 s: the car stands at x 36-41, y -2.25..2.25
+  run.extract_live_zones();
+  bool car_mapped = false;
+  for (const ObstacleBox& b : run.boxes(false)) {
+    car_mapped = car_mapped || (b.min.x() < 41.0 && b.max.x() > 36.0 && b.min.y() < 2.25 &&
+                                b.max.y() > -2.25 && b.max.z() < 3.0);
+  }
+  EXPECT_TRUE(car_mapped) << "the standing car has a box";
+  run.run_frames(15, run.sequence().frame_count());
+  run.finish();
+  EXPECT_GT(run.stats().feature_counters.features_removed, 0);
+  EXPECT_TRUE(run.write_outputs(dir / "out", &error)) << error;
+  std::vector<tools::TruthObject> objects;
+  std::vector<tools::RunBox> boxes;
+  ASSERT_TRUE(tools::load_objects_yaml(sequence + "/objects.yaml", &objects, &error)) << error;
+  ASSERT_TRUE(tools::load_boxes_csv(dir / "out/boxes.csv", &boxes, &error)) << error;
+  const tools::Evaluation e = tools::evaluate(objects, boxes, run.config().cell_size_m);
+  std::printf("[ crossing-car ]\n%s", tools::to_table(e).c_str());
+  EXPECT_EQ(e.moving_objects, 1);
+  EXPECT_EQ(e.recall, 1.0) << "the post and the shed";
+  EXPECT_LE(e.boxes_touching_no_object, 1) << "at most one box where the car stood";
+  EXPECT_EQ(run.stats().frames_ground_below_environment, 0);
+}
+
 }  // namespace
 }  // namespace zonemap

@@ -231,6 +231,37 @@ Eigen::Isometry3d looking_along_x() {
   return pose;
 }
 
+TEST(Mapper, SaysWhenTheGroundItSeesLiesUnderTheEnvironment) {
+  MapConfig config = small_config();  // centred, 4 cells tall: the bottom face 2 m down
+  config.d_max_m = 30.0;
+  CameraModel camera = tiny_camera();
+  camera.width = 64;
+  camera.height = 48;
+  camera.fx = camera.fy = 48.0;
+  camera.cx = 31.5;
+  camera.cy = 23.5;
+  // Depth of a flat ground `drop` metres under a camera looking along +x.
+  auto ground_frame = [&](double drop) {
+    std::vector<std::uint16_t> depth(64 * 48, 0);
+    for (int v = 24; v < 48; ++v)
+      for (int u = 0; u < 64; ++u)
+        depth[static_cast<std::size_t>(v * 64 + u)] =
+            static_cast<std::uint16_t>(drop * camera.fy / (v - camera.cy) * 1000.0);
+    return depth;
+  };
+  Mapper mapper(config, camera);
+  const std::vector<std::uint16_t> near = ground_frame(1.5);
+  const FrameReport inside = mapper.integrate({near.data(), nullptr, 64, 48}, looking_along_x());
+  EXPECT_GT(inside.sampled_hits, 20);
+  EXPECT_EQ(inside.sampled_hits_below_environment, 0);
+  EXPECT_FALSE(ground_below_environment(inside));
+  const std::vector<std::uint16_t> far = ground_frame(6.0);
+  const FrameReport under = mapper.integrate({far.data(), nullptr, 64, 48}, looking_along_x());
+  EXPECT_GT(under.sampled_hits, 10);
+  EXPECT_EQ(under.sampled_hits_below_environment, under.sampled_hits);
+  EXPECT_TRUE(ground_below_environment(under));
+}
+
 TEST(Mapper, SkyFilterTurnsBrightFlatMissingDepthIntoFreeSpace) {
   MapConfig config = small_config();
   config.zone_cells = {20, 20, 20};

@@ -140,6 +140,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"pixels_sky\": " << s.pixels_sky << ",\n"
       << "  \"pixels_missing\": " << s.pixels_missing << ",\n"
       << "  \"pixels_too_near\": " << s.pixels_too_near << ",\n"
+      << "  \"frames_ground_below_environment\": " << s.frames_ground_below_environment << ",\n"
       << "  \"occupied_cells_final\": " << s.occupied_cells_final << ",\n"
       << "  \"height_profile_columns_outside\": " << s.height_profile_columns_outside << ",\n"
       << "  \"obstacle_boxes\": " << s.obstacle_boxes << ",\n"

@@ -43,6 +43,9 @@ struct RunStats {
   std::int64_t pixels_sky = 0;
   std::int64_t pixels_missing = 0;
   std::int64_t pixels_too_near = 0;
+  // Frames whose sampled measurements mostly end under the environment's bottom
+  // face: the ground lies out of the map's reach (warned about at the end).
+  std::int64_t frames_ground_below_environment = 0;
   std::int64_t occupied_cells_final = 0;
   std::int64_t height_profile_columns_outside = 0;
   std::uint64_t local_grid_bytes = 0;

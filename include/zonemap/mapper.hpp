@@ -46,7 +46,21 @@ struct FrameReport {
   std::int64_t cells_hidden = 0;      // projective path: behind every surface, skipped
   std::int64_t cells_exact = 0;       // projective path: cells settled ray by ray
   std::int64_t rays_exact = 0;        // projective path: rays clipped for them
+  // Every kBelowSampleStep-th pixel of each kBelowSampleStep-th row: its measured
+  // depths (in [d_min, d_max]), and those ending more than a cell under the
+  // environment's bottom face (the ground the camera sees is out of the map's reach).
+  std::int32_t sampled_hits = 0;
+  std::int32_t sampled_hits_below_environment = 0;
 };
+
+inline constexpr int kBelowSampleStep = 8;
+// A frame whose sampled hits end under the environment this often has the
+// ground out of reach (counted and warned about by the programs).
+inline constexpr double kGroundBelowShare = 0.25;
+inline bool ground_below_environment(const FrameReport& report) {
+  return report.sampled_hits > 0 &&
+         report.sampled_hits_below_environment > kGroundBelowShare * report.sampled_hits;
+}
 
 // True when the pose is finite and its rotation is orthonormal with det +1.
 bool is_valid_pose(const Eigen::Isometry3d& pose);
@@ -98,6 +112,10 @@ class Mapper {
   // so that the comparisons run sixteen pixels at once; flags holds three rows
   // (the flags, then the columns' maxima and minima over rows v - 1..v + 1).
   void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
+  // FrameReport's sampled_hits*: where the sampled measurements end against the
+  // bottom face of the environment at `origin`.
+  void sample_hits_below(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,
+                         const CellIndex& origin, FrameReport* report) const;
   // The frame's local grid blurred, weighted by range (when configured), fused.
   void finish_and_fuse(const Eigen::Vector3f& camera_cells,
                        const Eigen::Isometry3d& world_T_camera);

@@ -317,6 +317,7 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   stats_.pixels_sky += report.pixels_sky;
   stats_.pixels_missing += report.pixels_missing;
   stats_.pixels_too_near += report.pixels_too_near;
+  stats_.frames_ground_below_environment += ground_below_environment(report) ? 1 : 0;
 }
 
 void ReplayRun::after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
@@ -375,7 +376,20 @@ void ReplayRun::finish() {
   stats_.features = static_cast<std::int64_t>(features_->count());
   stats_.feature_counters = features_->counters();
   if (recorder_) close_recording();
+  warn_if_ground_out_of_reach();
   finished_ = true;
+}
+
+void ReplayRun::warn_if_ground_out_of_reach() const {
+  if (options_.quiet || stats_.frames_ground_below_environment == 0) return;
+  std::fprintf(stderr,
+               "%szonemap-replay: warning: in %lld of %lld frames most of what the camera "
+               "measured lies under the environment (map.environment, above_camera_m, "
+               "zone_cells): the ground and the lower part of what stands on it are not mapped\n",
+               progress_shown_ ? "\n" : "",
+               static_cast<long long>(stats_.frames_ground_below_environment),
+               static_cast<long long>(stats_.frames_mapped));
+  progress_shown_ = false;
 }
 
 // The last occupied cells, every feature (as boxes.csv will have them), the last

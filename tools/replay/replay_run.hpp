@@ -72,6 +72,7 @@ class ReplayRun : private runtime::MappingHooks {
 
  private:
   void log_feature_store_events();
+  void warn_if_ground_out_of_reach() const;
   void extract_zone(int live_index);
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;

@@ -140,13 +140,14 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     s->scene.cylinders.push_back({"post_b", Eigen::Vector2d(40.0, 3.5), 0.25, 0.0, 5.0});
     s->trajectory = straight({0, 0, 8.0}, {38, 0, 8.0}, 4.0, 15 * kDeg, rate);
   } else if (name == "crossing-car" || name == "parked-car") {
-    // A car (1.5 m tall) drives across the field ahead while the helicopter flies
-    // towards a post and a shed at 8 m: the ground it drove over is seen free again.
-    // parked-car: the same car standing still in the middle of its lane.
+    // A car (1.5 m tall) stands in the field ahead for the first 3 s of a flight
+    // towards a post and a shed at 8 m, then drives away across it: where it stood
+    // is seen free again. parked-car: the same car never leaves.
     const bool parked = name == "parked-car";
     s->description =
-        parked ? "a parked car, a post and a shed, flown towards at 8 m"
-               : "a car crossing the field ahead, a post and a shed, flown towards at 8 m";
+        parked
+            ? "a parked car, a post and a shed, flown towards at 8 m"
+            : "a car driving off across the field ahead, a post and a shed, flown towards at 8 m";
     s->config = "config/paper-flight3.yaml";
     Rng rng(options.seed);
     const double post_y = -4.0 + 2.0 * rng.uniform();
@@ -156,10 +157,9 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     const double speed = parked ? 0.0 : 2.5 + 1.5 * rng.uniform();
     const double direction = rng.uniform() < 0.5 ? 1.0 : -1.0;
     const double lane_x = 36.0 + 3.0 * rng.uniform();
-    const double start_y = parked ? 0.0 : -direction * 16.0;  // the car's centre at 0 s
-    Box car{"car", Eigen::Vector3d(lane_x, start_y - 2.25, 0.0),
-            Eigen::Vector3d(lane_x + 1.8, start_y + 2.25, 1.5)};
+    Box car{"car", Eigen::Vector3d(lane_x, -2.25, 0.0), Eigen::Vector3d(lane_x + 1.8, 2.25, 1.5)};
     car.velocity_mps = Eigen::Vector3d(0.0, direction * speed, 0.0);
+    car.departs_s = 3.0;
     s->scene.boxes.push_back(car);
     s->trajectory = straight({0, 0, 8.0}, {24, 0, 8.0}, 3.0, 15 * kDeg, rate);
   } else if (name == "out-and-back") {

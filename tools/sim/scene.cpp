@@ -185,8 +185,9 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
 Scene Scene::at(double time_s) const {
   Scene moved = *this;
   for (Box& b : moved.boxes) {
-    b.min += b.velocity_mps * time_s;
-    b.max += b.velocity_mps * time_s;
+    const double driven_s = std::max(0.0, time_s - b.departs_s);
+    b.min += b.velocity_mps * driven_s;
+    b.max += b.velocity_mps * driven_s;
   }
   return moved;
 }

@@ -18,7 +18,8 @@ struct Box {
   std::string name;
   Eigen::Vector3d min;  // where it stands at time 0
   Eigen::Vector3d max;
-  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // a moving object (a car)
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // a moving object (a car) ...
+  double departs_s = 0.0;                                  // ... standing still until then
   bool moving() const { return !velocity_mps.isZero(); }
 };
 

@@ -372,6 +372,7 @@ struct Pipeline::Impl {
     h->mapping_ms_p99 = s.mapping.percentile(0.99);
     h->zones_allocated = static_cast<std::int32_t>(mapper.zones().zones_allocated());
     h->add("pose_waits", s.pose_waits);
+    h->add("frames_ground_below_environment", s.frames_ground_below_environment);
     h->add("outputs_skipped", s.outputs_skipped);
     h->add("ins_messages", ins_counters.messages.load(std::memory_order_relaxed));
     h->add("ins_malformed", ins_counters.malformed.load(std::memory_order_relaxed));
@@ -606,6 +607,7 @@ struct Pipeline::Impl {
         continue;
       }
       ++s.frames_mapped;
+      s.frames_ground_below_environment += ground_below_environment(report) ? 1 : 0;
       // Periodic extraction (the single-threaded replay's schedule).
       const int pick = schedule.after_frame(s.frames_mapped, mapper.zones().live_zone_count());
       ZoneView periodic;
@@ -816,6 +818,7 @@ void Pipeline::run() {
   stats_.frames_skipped_no_pose = m.frames_skipped_no_pose;
   stats_.dropped_mapper_behind = m.dropped_mapper_behind;
   stats_.pose_waits = m.pose_waits;
+  stats_.frames_ground_below_environment = m.frames_ground_below_environment;
   stats_.outputs_skipped = m.outputs_skipped;
   stats_.mapping_thread_allocations = m.mapping_thread_allocations;
   stats_.mapping_thread_frees = m.mapping_thread_frees;

@@ -259,6 +259,7 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   s.feature_counters = features_->counters();
   s.cell_size_m = map_config_.cell_size_m;
   s.poses_rejected = pose_counters_.gate.rejected_total() + pose_counters_.malformed;
+  s.frames_ground_below_environment = stats_.frames_ground_below_environment;
   // Every sink's and the INS source's counters under "links".
   hal::HealthSnapshot links;
   links.add("ins_messages", pose_counters_.messages);

@@ -89,6 +89,14 @@ int main(int argc, char** argv) {
                  s.end_to_end.percentile(0.5), s.end_to_end.percentile(0.99),
                  static_cast<long long>(s.mapping_thread_allocations + s.output_thread_allocations +
                                         s.ins_thread_allocations));
+    if (s.frames_ground_below_environment > 0) {
+      std::fprintf(stderr,
+                   "zonemap: warning: in %lld of %lld frames most of what the camera measured lies "
+                   "under the environment: the ground and the lower part of what stands on it are "
+                   "not mapped (map.environment, above_camera_m, zone_cells)\n",
+                   static_cast<long long>(s.frames_ground_below_environment),
+                   static_cast<long long>(s.frames_mapped));
+    }
   }
   return 0;
 }

@@ -215,8 +215,61 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
       Eigen::Vector3d(origin.x, origin.y, origin.z) * config_.cell_size_m;
   const Eigen::Vector3f start =
       ((world_T_camera.translation() - origin_m) * inv_cell).cast<float>();
-  const Eigen::Matrix3f rotation_cells = (world_T_camera.linear() * inv_cell).cast<float>();
+  if (config_.integration == MapConfig::Integration::kProjective) {
+    integrate_projective(frame, world_T_camera, &report);
+  } else {
+    integrate_reference(frame, start, (world_T_camera.linear() * inv_cell).cast<float>(), &report);
+  }
+  finish_and_fuse(start, world_T_camera);
+  return report;
+}
 
+void Mapper::integrate_projective(const DepthFrameView& frame,
+                                  const Eigen::Isometry3d& world_T_camera, FrameReport* report) {
+  classify_depths(frame, report);
+  depths_.build();
+  const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_);
+  report->cells_visited = drawn.cells_evaluated;
+  report->cells_block_free = drawn.cells_block_free;
+  report->cells_box_free = drawn.cells_box_free;
+  report->cells_hidden = drawn.cells_hidden;
+  report->cells_exact = drawn.cells_exact;
+  report->rays_exact = drawn.rays_exact;
+}
+
+void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
+  // Level 0 of the range table: each pixel's depth code, kFar for free-only
+  // rays, or missing. pixel_step is a reference-path option: every pixel is used.
+  const bool sky_filter = config_.sky.enabled && frame.left != nullptr;
+  std::uint16_t* base = depths_.base();
+  const std::uint16_t near_last = raw_near_last_, far_last = raw_far_last_;
+  std::int32_t hit = 0, near = 0, far = 0, missing = 0;
+  for (int v = 0; v < frame.height; ++v) {
+    const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
+    std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
+    const RowCounts counts = convert_row(depth_row, out, frame.width, near_last, far_last);
+    const std::uint16_t row_missing = counts.missing, row_near = counts.near, row_far = counts.far;
+    near += row_near;
+    far += row_far;
+    hit += frame.width - row_missing - row_near - row_far;
+    missing += row_missing;
+    // Missing pixels of a bright, textureless patch are sky: free up to d_max.
+    if (row_missing > 0 && sky_filter) {
+      sky_row(frame.left, v, sky_flags_.get());
+      const std::uint16_t row_sky = mark_sky(depth_row, sky_flags_.get(), out, frame.width);
+      report->pixels_sky += row_sky;
+      missing -= row_sky;
+      far += row_sky;
+    }
+  }
+  report->rays_hit += hit;
+  report->rays_free += far;
+  report->pixels_too_near += near;
+  report->pixels_missing += missing;
+}
+
+void Mapper::integrate_reference(const DepthFrameView& frame, const Eigen::Vector3f& start,
+                                 const Eigen::Matrix3f& rotation_cells, FrameReport* report) {
   const float d_min = static_cast<float>(config_.d_min_m);
   const float d_max = static_cast<float>(config_.d_max_m);
   const float depth_to_m = static_cast<float>(1.0 / camera_.depth_scale);
@@ -228,48 +281,6 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   const float cy = static_cast<float>(camera_.cy);
   const bool sky_filter = config_.sky.enabled && frame.left != nullptr;
   const int step = config_.pixel_step;
-
-  if (config_.integration == MapConfig::Integration::kProjective) {
-    // Level 0 of the range table: each pixel's depth code, kFar for free-only
-    // rays, or missing. pixel_step is a reference-path option: every pixel is used.
-    std::uint16_t* base = depths_.base();
-    const std::uint16_t near_last = raw_near_last_, far_last = raw_far_last_;
-    std::int32_t hit = 0, near = 0, far = 0, missing = 0;
-    for (int v = 0; v < frame.height; ++v) {
-      const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
-      std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
-      const RowCounts counts = convert_row(depth_row, out, frame.width, near_last, far_last);
-      const std::uint16_t row_missing = counts.missing, row_near = counts.near,
-                          row_far = counts.far;
-      near += row_near;
-      far += row_far;
-      hit += frame.width - row_missing - row_near - row_far;
-      missing += row_missing;
-      // Missing pixels of a bright, textureless patch are sky: free up to d_max.
-      if (row_missing > 0 && sky_filter) {
-        sky_row(frame.left, v, sky_flags_.get());
-        const std::uint16_t row_sky = mark_sky(depth_row, sky_flags_.get(), out, frame.width);
-        report.pixels_sky += row_sky;
-        missing -= row_sky;
-        far += row_sky;
-      }
-    }
-    report.rays_hit += hit;
-    report.rays_free += far;
-    report.pixels_too_near += near;
-    report.pixels_missing += missing;
-    depths_.build();
-    const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_);
-    report.cells_visited = drawn.cells_evaluated;
-    report.cells_block_free = drawn.cells_block_free;
-    report.cells_box_free = drawn.cells_box_free;
-    report.cells_hidden = drawn.cells_hidden;
-    report.cells_exact = drawn.cells_exact;
-    report.rays_exact = drawn.rays_exact;
-    finish_and_fuse(start, world_T_camera);
-    return report;
-  }
-
   for (int v = 0; v < frame.height; v += step) {
     const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
     bool sky_known = false;
@@ -283,16 +294,16 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
           sky_known = true;
         }
         if (sky_filter && sky_flags_[static_cast<std::size_t>(u)] != 0) {
-          ++report.pixels_sky;
+          ++report->pixels_sky;
           ray.free_only = true;
         } else {
-          ++report.pixels_missing;
+          ++report->pixels_missing;
           continue;
         }
       } else {
         const float d = static_cast<float>(raw) * depth_to_m;
         if (d < d_min) {
-          ++report.pixels_too_near;
+          ++report->pixels_too_near;
           continue;
         }
         ray.free_only = d > d_max;
@@ -301,20 +312,17 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
       }
       if (ray.free_only) {
         ray.delta_end = d_max;
-        ++report.rays_free;
+        ++report->rays_free;
       } else {
         ray.delta_end = std::min(ray.depth + ray.range_resolution, d_max);
-        ++report.rays_hit;
+        ++report->rays_hit;
       }
       // Pinhole ray: the point at depth-plane distance δ is δ * (x, y, 1).
       const Eigen::Vector3f pixel_ray((static_cast<float>(u) - cx) * inv_fx,
                                       (static_cast<float>(v) - cy) * inv_fy, 1.0f);
-      report.cells_visited += local_.draw_ray(start, rotation_cells * pixel_ray, ray);
+      report->cells_visited += local_.draw_ray(start, rotation_cells * pixel_ray, ray);
     }
   }
-
-  finish_and_fuse(start, world_T_camera);
-  return report;
 }
 
 void Mapper::sample_hits_below(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,
@@ -323,8 +331,8 @@ void Mapper::sample_hits_below(const DepthFrameView& frame, const Eigen::Isometr
   // z up: the bottom face is the environment's lowest z; NED: its highest. A
   // measurement counts as under it one cell past it (stereo noise straddles a
   // ground that lies just on the face).
-  const double bottom_m = camera_.world_z_up ? (origin.z - 1) * cell
-                                             : (origin.z + config_.zone_cells[2] + 1) * cell;
+  const double bottom_m =
+      camera_.world_z_up ? (origin.z - 1) * cell : (origin.z + config_.zone_cells[2] + 1) * cell;
   const double to_m = 1.0 / camera_.depth_scale;
   for (int v = kBelowSampleStep / 2; v < frame.height; v += kBelowSampleStep) {
     for (int u = kBelowSampleStep / 2; u < frame.width; u += kBelowSampleStep) {

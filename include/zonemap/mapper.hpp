@@ -112,6 +112,15 @@ class Mapper {
   // so that the comparisons run sixteen pixels at once; flags holds three rows
   // (the flags, then the columns' maxima and minima over rows v - 1..v + 1).
   void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
+  // The two integration paths, each drawing the frame into the local grid: the
+  // projective one (the depth table, then every frustum cell once) and the
+  // reference (every pixel_step-th pixel's ray walked).
+  void integrate_projective(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,
+                            FrameReport* report);
+  // Level 0 of the depth table from the frame, sky marked, pixels counted.
+  void classify_depths(const DepthFrameView& frame, FrameReport* report);
+  void integrate_reference(const DepthFrameView& frame, const Eigen::Vector3f& start,
+                           const Eigen::Matrix3f& rotation_cells, FrameReport* report);
   // FrameReport's sampled_hits*: where the sampled measurements end against the
   // bottom face of the environment at `origin`.
   void sample_hits_below(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,

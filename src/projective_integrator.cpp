@@ -658,254 +658,292 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
   }
 }
 
-ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
-                                           const Eigen::Isometry3d& world_T_camera,
-                                           LocalGrid& grid) {
-  classify_blocks(depths, world_T_camera, grid.origin());
-  const double s = cell_size_m_;
-  const std::array<int, 3>& dims = grid.dims();
-  const CellIndex origin = grid.origin();
-  const Eigen::Matrix3d r = world_T_camera.linear();
-  const Eigen::Matrix3d rt = r.transpose();
-  const Eigen::Vector3d t = world_T_camera.translation();
-  // Half extents of a cell along the camera axes (the camera-frame AABB of a cube).
-  const Eigen::Vector3d half = 0.5 * s * r.cwiseAbs().colwise().sum().transpose();
-  const int w = camera_.width, h = camera_.height;
-  const double fx = camera_.fx, fy = camera_.fy, cx = camera_.cx, cy = camera_.cy;
+// draw()'s constants for one frame: the camera-frame geometry of a grid cell,
+// the frustum's rows, the probes and the pixel rays.
+struct ProjectiveIntegrator::FrameSetup {
+  double s = 0.0, inv_s = 0.0;
+  CellIndex origin;
+  Eigen::Matrix3d rt;
+  Eigen::Vector3d t;
+  Eigen::Vector3d half;  // half extents of a cell along the camera axes
+  int w = 0, h = 0;
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  float fx_f = 0.0f, fy_f = 0.0f, cx_f = 0.0f, cy_f = 0.0f, cell_size = 0.0f;
+  Frustum frustum;
+  Eigen::Vector3d base;           // cell (x, y, z) has its centre at base + (x, y, z) * s
+  Eigen::Vector3d step_x_camera;  // one cell along x, in the camera frame
+  Projection projection;
+  Lanes probe_x{}, probe_y{}, probe_z{};
+  double quick_max_depth = 0.0;
+  CellRays cell;  // the pixel rays in world axes (each cell sets its box)
+};
 
+// Inlined too, so that the frame's constants stay draw's own locals (the cell
+// writes are bytes, which may alias anything the compiler cannot see is private).
+__attribute__((always_inline)) inline ProjectiveIntegrator::FrameSetup
+ProjectiveIntegrator::prepare_frame(const Eigen::Isometry3d& world_T_camera,
+                                    const LocalGrid& grid) const {
+  FrameSetup f;
+  f.s = cell_size_m_;
+  f.inv_s = 1.0 / f.s;
+  const double s = f.s;
+  f.origin = grid.origin();
+  const Eigen::Matrix3d r = world_T_camera.linear();
+  f.rt = r.transpose();
+  f.t = world_T_camera.translation();
+  // The camera-frame AABB of a cube.
+  f.half = 0.5 * s * r.cwiseAbs().colwise().sum().transpose();
+  f.w = camera_.width;
+  f.h = camera_.height;
+  f.fx = camera_.fx;
+  f.fy = camera_.fy;
+  f.cx = camera_.cx;
+  f.cy = camera_.cy;
   // The frustum, widened by a cell's half diagonal: the cells worth a look.
-  const Frustum frustum = make_frustum(world_T_camera, camera_, d_min_, d_max_, s);
-  // Cell (x, y, z) of the grid has its centre at base + (x, y, z) * s.
-  const Eigen::Vector3d base =
-      (Eigen::Vector3d(origin.x, origin.y, origin.z) + Eigen::Vector3d::Constant(0.5)) * s;
+  f.frustum = make_frustum(world_T_camera, camera_, d_min_, d_max_, s);
+  f.base =
+      (Eigen::Vector3d(f.origin.x, f.origin.y, f.origin.z) + Eigen::Vector3d::Constant(0.5)) * s;
   Eigen::Vector3d corners[8];
   for (int k = 0; k < 8; ++k) {
-    corners[k] = rt * Eigen::Vector3d((k & 1) ? 0.5 * s : -0.5 * s, (k & 2) ? 0.5 * s : -0.5 * s,
-                                      (k & 4) ? 0.5 * s : -0.5 * s);
+    corners[k] = f.rt * Eigen::Vector3d((k & 1) ? 0.5 * s : -0.5 * s, (k & 2) ? 0.5 * s : -0.5 * s,
+                                        (k & 4) ? 0.5 * s : -0.5 * s);
   }
-  const Eigen::Vector3d step_x_camera = rt.col(0) * s;
+  f.step_x_camera = f.rt.col(0) * s;
   int far_corner = 0;  // the corner offset with the largest camera-frame z
   for (int k = 1; k < 8; ++k) {
     if (corners[k].z() > corners[far_corner].z()) far_corner = k;
   }
-  Projection projection = projection_for(camera_);
+  f.projection = projection_for(camera_);
   for (int k = 0; k < 8; ++k) {
-    projection.corner_x[k / 4][k % 4] = static_cast<float>(corners[k].x());
-    projection.corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
-    projection.corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
+    f.projection.corner_x[k / 4][k % 4] = static_cast<float>(corners[k].x());
+    f.projection.corner_y[k / 4][k % 4] = static_cast<float>(corners[k].y());
+    f.projection.corner_z[k / 4][k % 4] = static_cast<float>(corners[k].z());
   }
   // Probe points relative to a cell's centre (camera frame): the centre, 3/4 of
   // the way to the farthest and to the nearest corner; lane 3 is replaced by the
   // footprint's centre.
-  Lanes probe_x{}, probe_y{}, probe_z{};
   for (int i = 1; i < 3; ++i) {
     const Eigen::Vector3d o = (i == 1 ? 0.75 : -0.75) * corners[far_corner];
-    probe_x[i] = static_cast<float>(o.x());
-    probe_y[i] = static_cast<float>(o.y());
-    probe_z[i] = static_cast<float>(o.z());
+    f.probe_x[i] = static_cast<float>(o.x());
+    f.probe_y[i] = static_cast<float>(o.y());
+    f.probe_z[i] = static_cast<float>(o.z());
   }
   // Pixel rays in world axes, for the ray-by-ray rule.
-  CellRays cell;
-  {
-    const Eigen::Matrix3f rf = r.cast<float>();
-    const Eigen::Vector3f du = rf.col(0) / static_cast<float>(fx);
-    const Eigen::Vector3f dv = rf.col(1) / static_cast<float>(fy);
-    const Eigen::Vector3f w00 =
-        rf * Eigen::Vector3f(static_cast<float>(-cx / fx), static_cast<float>(-cy / fy), 1.0f);
-    for (int k = 0; k < 3; ++k) {
-      cell.rays.w00[k] = splat(w00[k]);
-      cell.rays.du[k] = splat(du[k]);
-      cell.rays.dv[k] = splat(dv[k]);
-    }
-    cell.rays.d_min = splat(d_min_);
-    cell.rays.d_max = splat(d_max_);
-    cell.rays.code_to_m = splat(code_to_m_);
-    cell.rays.resolution_factor = splat(resolution_factor_);
+  const Eigen::Matrix3f rf = r.cast<float>();
+  const Eigen::Vector3f du = rf.col(0) / static_cast<float>(f.fx);
+  const Eigen::Vector3f dv = rf.col(1) / static_cast<float>(f.fy);
+  const Eigen::Vector3f w00 = rf * Eigen::Vector3f(static_cast<float>(-f.cx / f.fx),
+                                                   static_cast<float>(-f.cy / f.fy), 1.0f);
+  for (int k = 0; k < 3; ++k) {
+    f.cell.rays.w00[k] = splat(w00[k]);
+    f.cell.rays.du[k] = splat(du[k]);
+    f.cell.rays.dv[k] = splat(dv[k]);
   }
-  const auto cell_size = static_cast<float>(s);
+  f.cell.rays.d_min = splat(d_min_);
+  f.cell.rays.d_max = splat(d_max_);
+  f.cell.rays.code_to_m = splat(code_to_m_);
+  f.cell.rays.resolution_factor = splat(resolution_factor_);
+  f.cell_size = static_cast<float>(s);
   // The ray of the pixel nearest to a cell's projected centre passes within
   // 0.75 pixel of the centre: it crosses the cell while the cell spans > 1.5 px.
-  const double quick_max_depth = s * std::min(fx, fy) / 1.5;
-  const auto fx_f = static_cast<float>(fx), fy_f = static_cast<float>(fy);
-  const auto cx_f = static_cast<float>(cx), cy_f = static_cast<float>(cy);
+  f.quick_max_depth = s * std::min(f.fx, f.fy) / 1.5;
+  f.fx_f = static_cast<float>(f.fx);
+  f.fy_f = static_cast<float>(f.fy);
+  f.cx_f = static_cast<float>(f.cx);
+  f.cy_f = static_cast<float>(f.cy);
+  return f;
+}
 
-  const double inv_s = 1.0 / s;
+ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
+                                           const Eigen::Isometry3d& world_T_camera,
+                                           LocalGrid& grid) {
+  classify_blocks(depths, world_T_camera, grid.origin());
+  const FrameSetup f = prepare_frame(world_T_camera, grid);
+  const std::array<int, 3>& dims = grid.dims();
+  CellRays cell = f.cell;
   ProjectiveStats stats;
   int touched_lo[3] = {dims[0], dims[1], dims[2]};
   int touched_hi[3] = {-1, -1, -1};
   for (int z = 0; z < dims[2]; ++z) {
     for (int y = 0; y < dims[1]; ++y) {
-      const double wy = base.y() + y * s, wz = base.z() + z * s;
+      const double wy = f.base.y() + y * f.s, wz = f.base.z() + z * f.s;
       int xa = 0, xb = -1;
-      if (!frustum.row(wy, wz, base.x(), inv_s, dims[0], &xa, &xb)) continue;
+      if (!f.frustum.row(wy, wz, f.base.x(), f.inv_s, dims[0], &xa, &xb)) continue;
       touched_lo[0] = std::min(touched_lo[0], xa);
       touched_hi[0] = std::max(touched_hi[0], xb);
       touched_lo[1] = std::min(touched_lo[1], y);
       touched_hi[1] = std::max(touched_hi[1], y);
       touched_lo[2] = std::min(touched_lo[2], z);
       touched_hi[2] = std::max(touched_hi[2], z);
-      Eigen::Vector3d pc = rt * (Eigen::Vector3d(base.x() + xa * s, wy, wz) - t);
+      Eigen::Vector3d pc = f.rt * (Eigen::Vector3d(f.base.x() + xa * f.s, wy, wz) - f.t);
       const std::uint8_t* block_row =
           block_class_.get() +
           static_cast<std::size_t>(blocks_[0]) *
               (static_cast<std::size_t>(y / kBlock) +
                static_cast<std::size_t>(blocks_[1]) * static_cast<std::size_t>(z / kBlock));
-      for (int x = xa; x <= xb; ++x, pc += step_x_camera) {
+      for (int x = xa; x <= xb; ++x, pc += f.step_x_camera) {
         const std::uint8_t block = block_row[static_cast<unsigned>(x) / kBlock];  // x >= 0
         if (block == kBlockUnseen) {
           // The rest of the block at once: no ray reaches any of its cells.
           const int last = std::min(xb, (x & ~(kBlock - 1)) + kBlock - 1);
           stats.cells_hidden += last - x + 1;
-          pc += static_cast<double>(last - x) * step_x_camera;
+          pc += static_cast<double>(last - x) * f.step_x_camera;
           x = last;
           continue;
         }
-        const double zc = pc.z();
-        const double a = std::max(zc - half.z(), static_cast<double>(d_min_));
-        const double b = zc + half.z();
-        if (b < d_min_ || a > d_max_) continue;
-        // The bulk of the frustum is free space or hidden behind surfaces. When
-        // every pixel ray near the cell is free across it, the cell is free if one
-        // of them, a real one, crosses it: known for its whole block (then the
-        // centre pixel's ray, real and crossing the cell, saves projecting it), or
-        // from the depth range over the cell's footprint (best_value's bound is
-        // then exactly -1). When every such ray ends before the cell, nothing
-        // reaches it.
-        const bool quick = zc - half.z() >= d_min_ && zc <= quick_max_depth;
-        // The code of the pixel nearest to the cell centre's image when its ray
-        // surely crosses the cell (quick), else kMissing; looked up once a cell
-        // (the block test, the box test and U < 0 may each ask).
-        int centre_looked_up = -1;
-        const auto centre_code = [&]() -> std::uint16_t {
-          if (centre_looked_up >= 0) return static_cast<std::uint16_t>(centre_looked_up);
-          std::uint16_t code = DepthRangeTable::kMissing;
-          if (quick) {
-            const double inv_z = 1.0 / zc;
-            const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-            if (uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5)
-              code = depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
-                                    static_cast<std::size_t>(uc + 0.5)];
-          }
-          centre_looked_up = code;
-          return code;
-        };
-        if (block == kBlockFree && centre_code() != DepthRangeTable::kMissing) {
-          ++stats.cells_evaluated;
-          ++stats.cells_block_free;
-          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
-          continue;
-        }
-        // The image box of the cube's eight projected corners: the pixels whose
-        // rays can cross the cell.
-        const PixelRect rect = project_cube(projection, static_cast<float>(pc.x()),
-                                            static_cast<float>(pc.y()), static_cast<float>(pc.z()));
-        const int px0 = rect.x0, px1 = rect.x1, py0 = rect.y0, py1 = rect.y1;
-        if (px0 > px1 || py0 > py1) continue;  // no pixel sees the cell
-        std::uint16_t lo_code = 0, hi_code = 0;
-        depths.range(px0, py0, px1, py1, &lo_code, &hi_code);
-        if (lo_code > hi_code) continue;  // every pixel near it missing
-        if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(a)) {
-          ++stats.cells_hidden;  // every ray ends before the cell
-          continue;
-        }
-        cell.a = static_cast<float>(a);
-        cell.b = static_cast<float>(b);
-        const auto set_cell_box = [&] {
-          const Eigen::Vector3f cell_lo =
-              (Eigen::Vector3d(origin.x + x, origin.y + y, origin.z + z) * s - t).cast<float>();
-          for (int k = 0; k < 3; ++k) {
-            cell.rays.lo[k] = splat(cell_lo[k]);
-            cell.rays.hi[k] = splat(cell_lo[k] + cell_size);
-          }
-        };
-        // Probes, four rays at once: through the centre, through points near the
-        // corners farthest from and nearest to the camera (the rays that leave the
-        // cell last and enter it first), and through the centre of the footprint.
-        // Their largest m̂ in the cell (cell.rays set): a value some ray reaches.
-        const auto probe_value = [&] {
-          const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
-                     pzf = static_cast<float>(pc.z());
-          const Lanes qx = splat(pxf) + probe_x, qy = splat(pyf) + probe_y,
-                      qz = splat(pzf) + probe_z;
-          const Lanes footprint_u = splat(0.5f * static_cast<float>(px0 + px1));
-          const Lanes footprint_v = splat(0.5f * static_cast<float>(py0 + py1));
-          const auto ahead = qz > 1e-6f;
-          Lanes pu = ahead ? splat(fx_f) * qx / qz + splat(cx_f) : footprint_u;
-          Lanes pv = ahead ? splat(fy_f) * qy / qz + splat(cy_f) : footprint_v;
-          pu[3] = footprint_u[3];
-          pv[3] = footprint_v[3];
-          // Rounded to the nearest pixel of the footprint (clamped first: in range).
-          pu = lanes_min(lanes_max(pu, splat(static_cast<float>(px0))),
-                         splat(static_cast<float>(px1)));
-          pv = lanes_min(lanes_max(pv, splat(static_cast<float>(py0))),
-                         splat(static_cast<float>(py1)));
-          using Ints = std::int32_t __attribute__((vector_size(16)));
-          const Ints pixel_u = __builtin_convertvector(pu + 0.5f, Ints);  // >= 0: truncation
-          const Ints pixel_v = __builtin_convertvector(pv + 0.5f, Ints);  // rounds
-          pu = __builtin_convertvector(pixel_u, Lanes);
-          pv = __builtin_convertvector(pixel_v, Lanes);
-          const Ints at = pixel_v * w + pixel_u;
-          const std::uint16_t* codes = depths.codes();
-          const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
-          const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
-          return lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
-        };
-        // Whether a real ray reaches into the cell: the reference draws nothing into
-        // a cell that none crosses, and the footprint box is wider than the cell's
-        // silhouette. `centre_reaches` settles it for the centre pixel's ray, else
-        // the probes and then the footprint's rays are clipped until one crosses.
-        const auto crossed = [&](bool centre_reaches) {
-          if (centre_reaches) return true;
-          set_cell_box();
-          if (probe_value() >= -1.0f) return true;
-          return any_ray_crosses(depths, px0, py0, px1, py1, cell);
-        };
-        if (free_across(lo_code, hi_code, static_cast<float>(b))) {
-          // What best_value gives here, without its scan. Every ray near the cell
-          // is free past it: a real centre ray crosses it.
-          ++stats.cells_evaluated;
-          if (!crossed(centre_code() != DepthRangeTable::kMissing)) continue;
-          ++stats.cells_box_free;
-          grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
-          continue;
-        }
-        // An upper bound U from the footprint's depth range (exact when it says
-        // free). The cell gets U whenever the reference's value has U's sign: a
-        // value never below the reference's (near a surface, a little more
-        // occupied or less free: the safe side), at the sign the reference gives.
-        ++stats.cells_evaluated;
-        float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
-        const int upper_fixed = to_fixed(value);
-        if (value > -1.0f && upper_fixed >= 0) {
-          // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
-          // surface (or an unknown 0) where the rays that really cross the cell
-          // are all free. Probe rays give a lower bound; when it rounds to U's
-          // sign the sign is settled, else the rays are looked at one by one, as
-          // the reference does, until one does.
-          set_cell_box();
-          cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
-          const float lower = probe_value();
-          if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
-            ++stats.cells_exact;
-            const float found =
-                exact_value(depths, px0, py0, px1, py1, cell, lower, &stats.rays_exact);
-            if (to_fixed(found) < cell.enough_fixed) value = found;  // a lower sign: exact
-          }
-        } else if (value >= -1.0f) {
-          // U < 0, if a ray reaches the cell: the centre's does when it ends past b.
-          const std::uint16_t centre = centre_code();
-          const bool centre_reaches =
-              centre != DepthRangeTable::kMissing &&
-              (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
-          if (!crossed(centre_reaches)) continue;
-        }
-        if (value >= -1.0f) grid.write_max(x, y, z, quantize(value));
+        settle_cell(f, depths, block, x, y, z, pc, cell, grid, &stats);
       }
     }
   }
   grid.extend_touched(touched_lo[0], touched_lo[1], touched_lo[2], touched_hi[0], touched_hi[1],
                       touched_hi[2]);
   return stats;
+}
+
+// Inlined into draw's row loop: it is the per-cell body, apart only for reading.
+__attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
+    const FrameSetup& f, const DepthRangeTable& depths, std::uint8_t block, int x, int y, int z,
+    const Eigen::Vector3d& pc, CellRays& cell, LocalGrid& grid, ProjectiveStats* stats) const {
+  const double s = f.s;
+  const int w = f.w, h = f.h;
+  const double fx = f.fx, fy = f.fy, cx = f.cx, cy = f.cy;
+  const double zc = pc.z();
+  const double a = std::max(zc - f.half.z(), static_cast<double>(d_min_));
+  const double b = zc + f.half.z();
+  if (b < d_min_ || a > d_max_) return;
+  // The bulk of the frustum is free space or hidden behind surfaces. When
+  // every pixel ray near the cell is free across it, the cell is free if one
+  // of them, a real one, crosses it: known for its whole block (then the
+  // centre pixel's ray, real and crossing the cell, saves projecting it), or
+  // from the depth range over the cell's footprint (best_value's bound is
+  // then exactly -1). When every such ray ends before the cell, nothing
+  // reaches it.
+  const bool quick = zc - f.half.z() >= d_min_ && zc <= f.quick_max_depth;
+  // The code of the pixel nearest to the cell centre's image when its ray
+  // surely crosses the cell (quick), else kMissing; looked up once a cell
+  // (the block test, the box test and U < 0 may each ask).
+  int centre_looked_up = -1;
+  const auto centre_code = [&]() -> std::uint16_t {
+    if (centre_looked_up >= 0) return static_cast<std::uint16_t>(centre_looked_up);
+    std::uint16_t code = DepthRangeTable::kMissing;
+    if (quick) {
+      const double inv_z = 1.0 / zc;
+      const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
+      if (uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5)
+        code = depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
+                              static_cast<std::size_t>(uc + 0.5)];
+    }
+    centre_looked_up = code;
+    return code;
+  };
+  if (block == kBlockFree && centre_code() != DepthRangeTable::kMissing) {
+    ++stats->cells_evaluated;
+    ++stats->cells_block_free;
+    grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+    return;
+  }
+  // The image box of the cube's eight projected corners: the pixels whose
+  // rays can cross the cell.
+  const PixelRect rect = project_cube(f.projection, static_cast<float>(pc.x()),
+                                      static_cast<float>(pc.y()), static_cast<float>(pc.z()));
+  const int px0 = rect.x0, px1 = rect.x1, py0 = rect.y0, py1 = rect.y1;
+  if (px0 > px1 || py0 > py1) return;  // no pixel sees the cell
+  std::uint16_t lo_code = 0, hi_code = 0;
+  depths.range(px0, py0, px1, py1, &lo_code, &hi_code);
+  if (lo_code > hi_code) return;  // every pixel near it missing
+  if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(a)) {
+    ++stats->cells_hidden;  // every ray ends before the cell
+    return;
+  }
+  cell.a = static_cast<float>(a);
+  cell.b = static_cast<float>(b);
+  const auto set_cell_box = [&] {
+    const Eigen::Vector3f cell_lo =
+        (Eigen::Vector3d(f.origin.x + x, f.origin.y + y, f.origin.z + z) * s - f.t).cast<float>();
+    for (int k = 0; k < 3; ++k) {
+      cell.rays.lo[k] = splat(cell_lo[k]);
+      cell.rays.hi[k] = splat(cell_lo[k] + f.cell_size);
+    }
+  };
+  // Probes, four rays at once: through the centre, through points near the
+  // corners farthest from and nearest to the camera (the rays that leave the
+  // cell last and enter it first), and through the centre of the footprint.
+  // Their largest m̂ in the cell (cell.rays set): a value some ray reaches.
+  const auto probe_value = [&] {
+    const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
+               pzf = static_cast<float>(pc.z());
+    const Lanes qx = splat(pxf) + f.probe_x, qy = splat(pyf) + f.probe_y,
+                qz = splat(pzf) + f.probe_z;
+    const Lanes footprint_u = splat(0.5f * static_cast<float>(px0 + px1));
+    const Lanes footprint_v = splat(0.5f * static_cast<float>(py0 + py1));
+    const auto ahead = qz > 1e-6f;
+    Lanes pu = ahead ? splat(f.fx_f) * qx / qz + splat(f.cx_f) : footprint_u;
+    Lanes pv = ahead ? splat(f.fy_f) * qy / qz + splat(f.cy_f) : footprint_v;
+    pu[3] = footprint_u[3];
+    pv[3] = footprint_v[3];
+    // Rounded to the nearest pixel of the footprint (clamped first: in range).
+    pu = lanes_min(lanes_max(pu, splat(static_cast<float>(px0))), splat(static_cast<float>(px1)));
+    pv = lanes_min(lanes_max(pv, splat(static_cast<float>(py0))), splat(static_cast<float>(py1)));
+    using Ints = std::int32_t __attribute__((vector_size(16)));
+    const Ints pixel_u = __builtin_convertvector(pu + 0.5f, Ints);  // >= 0: truncation
+    const Ints pixel_v = __builtin_convertvector(pv + 0.5f, Ints);  // rounds
+    pu = __builtin_convertvector(pixel_u, Lanes);
+    pv = __builtin_convertvector(pixel_v, Lanes);
+    const Ints at = pixel_v * w + pixel_u;
+    const std::uint16_t* codes = depths.codes();
+    const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
+    const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
+    return lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
+  };
+  // Whether a real ray reaches into the cell: the reference draws nothing into
+  // a cell that none crosses, and the footprint box is wider than the cell's
+  // silhouette. `centre_reaches` settles it for the centre pixel's ray, else
+  // the probes and then the footprint's rays are clipped until one crosses.
+  const auto crossed = [&](bool centre_reaches) {
+    if (centre_reaches) return true;
+    set_cell_box();
+    if (probe_value() >= -1.0f) return true;
+    return any_ray_crosses(depths, px0, py0, px1, py1, cell);
+  };
+  if (free_across(lo_code, hi_code, static_cast<float>(b))) {
+    // What best_value gives here, without its scan. Every ray near the cell
+    // is free past it: a real centre ray crosses it.
+    ++stats->cells_evaluated;
+    if (!crossed(centre_code() != DepthRangeTable::kMissing)) return;
+    ++stats->cells_box_free;
+    grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
+    return;
+  }
+  // An upper bound U from the footprint's depth range (exact when it says
+  // free). The cell gets U whenever the reference's value has U's sign: a
+  // value never below the reference's (near a surface, a little more
+  // occupied or less free: the safe side), at the sign the reference gives.
+  ++stats->cells_evaluated;
+  float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
+  const int upper_fixed = to_fixed(value);
+  if (value > -1.0f && upper_fixed >= 0) {
+    // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
+    // surface (or an unknown 0) where the rays that really cross the cell
+    // are all free. Probe rays give a lower bound; when it rounds to U's
+    // sign the sign is settled, else the rays are looked at one by one, as
+    // the reference does, until one does.
+    set_cell_box();
+    cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
+    const float lower = probe_value();
+    if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
+      ++stats->cells_exact;
+      const float found = exact_value(depths, px0, py0, px1, py1, cell, lower, &stats->rays_exact);
+      if (to_fixed(found) < cell.enough_fixed) value = found;  // a lower sign: exact
+    }
+  } else if (value >= -1.0f) {
+    // U < 0, if a ray reaches the cell: the centre's does when it ends past b.
+    const std::uint16_t centre = centre_code();
+    const bool centre_reaches =
+        centre != DepthRangeTable::kMissing &&
+        (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
+    if (!crossed(centre_reaches)) return;
+  }
+  if (value >= -1.0f) grid.write_max(x, y, z, quantize(value));
 }
 
 }  // namespace zonemap

@@ -75,6 +75,14 @@ class ProjectiveIntegrator {
   bool any_ray_crosses(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                        const CellRays& cell) const;
 
+  // draw() in three parts: the frame's constants, the frustum's rows (in draw),
+  // and one cell settled (free, the reference's sign, or left alone).
+  struct FrameSetup;
+  FrameSetup prepare_frame(const Eigen::Isometry3d& world_T_camera, const LocalGrid& grid) const;
+  void settle_cell(const FrameSetup& f, const DepthRangeTable& depths, std::uint8_t block, int x,
+                   int y, int z, const Eigen::Vector3d& pc, CellRays& cell, LocalGrid& grid,
+                   ProjectiveStats* stats) const;
+
   double cell_size_m_;
   // True when every ray of a depth in [lo, hi] (range-table codes) is still free
   // at δ = far_end.

@@ -386,6 +386,53 @@ TEST(ZonemapInsProfile, EncodeThenDecodeAndSequenceMismatch) {
   EXPECT_EQ(decoder.counters().mixed_sets, 1);
 }
 
+TEST(ObstacleCan, ABoxNotSeenForOverASecondCarriesItsAgeWithinTheSameBudget) {
+  std::vector<ObstacleBox> boxes(6);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    boxes[i].id = static_cast<std::uint32_t>(1 + i);
+    boxes[i].min = Eigen::Vector3d(10.0 * static_cast<double>(i), 0.0, 0.0);
+    boxes[i].max = boxes[i].min + Eigen::Vector3d(1, 1, 3);
+    boxes[i].last_seen_s = 100.0 - (i % 2 == 0 ? 0.5 : 42.37);  // odd ones: out of view 42 s
+  }
+  ObstacleCanConfig config;
+  config.rate_hz = 10.0;
+  config.max_frames_per_s = 10.0 * (2 + 2 * 6 + 3);  // the six boxes and three ages
+  ObstacleCanEncoder encoder(config);
+  std::vector<std::uint32_t> order(boxes.size());
+  std::vector<CanFrame> frames(encoder.frames_per_update());
+  std::size_t n = encoder.encode(boxes.data(), boxes.size(), Eigen::Vector3d::Zero(), true, 100.0,
+                                 order.data(), frames.data());
+  ASSERT_EQ(n, 2u + 12u + 3u);
+  EXPECT_EQ(encoder.counters().ages_sent, 3);
+  ObstacleCanDecoder decoder;
+  bool complete = false;
+  for (std::size_t i = 0; i < n; ++i) complete = decoder.feed(frames[i]);
+  ASSERT_TRUE(complete);
+  ASSERT_EQ(decoder.boxes().size(), 6u);
+  for (const DecodedObstacleBox& d : decoder.boxes()) {
+    EXPECT_NEAR(d.age_s, d.id % 2 == 0 ? 42.3 : 0.0, 1e-9) << d.id;  // floored to 0.1 s
+  }
+  // One frame fewer in the budget: the farthest box no longer fits, and says so.
+  config.max_frames_per_s -= 10.0;
+  ObstacleCanEncoder tight(config);
+  n = tight.encode(boxes.data(), boxes.size(), Eigen::Vector3d::Zero(), true, 100.0, order.data(),
+                   frames.data());
+  ObstacleCanDecoder second;
+  complete = false;
+  for (std::size_t i = 0; i < n; ++i) complete = second.feed(frames[i]);
+  ASSERT_TRUE(complete);
+  EXPECT_EQ(second.boxes().size(), 5u);
+  EXPECT_TRUE(second.flags() & kObstacleUpdateTruncated);
+  EXPECT_EQ(tight.counters().boxes_over_budget, 1);
+  // An age frame for another box than the one just completed breaks the update.
+  ObstacleCanDecoder strict;
+  const CanFrame stray = frames[5];  // BEGIN, box 1 (MIN, MAX), box 2 (MIN, MAX, AGE)
+  ASSERT_EQ(stray.id, 0x324u);
+  for (std::size_t i = 0; i < 4; ++i) strict.feed(frames[i]);  // ... box 2's MIN only
+  strict.feed(stray);                                          // its age before its BOX_MAX
+  EXPECT_EQ(strict.broken_updates(), 1);
+}
+
 TEST(ObstacleCan, EncodeThenDecodeHoldsEveryBoxNearestFirstWithinBudget) {
   std::vector<ObstacleBox> boxes;
   for (int i = 0; i < 40; ++i) {
@@ -394,6 +441,7 @@ TEST(ObstacleCan, EncodeThenDecodeHoldsEveryBoxNearestFirstWithinBudget) {
     b.kind = i % 10 == 9 ? FeatureKind::kGround : FeatureKind::kObstacle;
     b.min = {2000.0 + 10.0 * i, -1500.0 + 3.3 * i, -20.0};
     b.max = b.min + Eigen::Vector3d(1.23, 4.56, 7.89);
+    b.last_seen_s = 1.0;  // seen in this update: no BOX_AGE frames
     boxes.push_back(b);
   }
   const Eigen::Vector3d vehicle(2130.0, -1460.0, -30.0);

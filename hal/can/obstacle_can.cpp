@@ -24,10 +24,14 @@ constexpr SignalSpec kEnd[] = {{"GENERATION", 0, 16, true, false, 1.0, 0.0, ""},
                                {"BOX_COUNT", 16, 16, true, false, 1.0, 0.0, ""},
                                {"TOTAL_BOXES", 32, 16, true, false, 1.0, 0.0, ""},
                                {"FLAGS", 48, 8, true, false, 1.0, 0.0, ""}};
+constexpr SignalSpec kBoxAge[] = {{"BOX_ID", 0, 15, true, false, 1.0, 0.0, ""},
+                                  {"GROUND", 15, 1, true, false, 1.0, 0.0, ""},
+                                  {"AGE", 16, 16, true, false, 0.1, 0.0, "s"}};
 constexpr MessageSpec kMessages[] = {{"ZM_OBST_BEGIN", 0x320, false, 8, kBegin},
                                      {"ZM_OBST_BOX_MIN", 0x321, false, 8, kBoxMin},
                                      {"ZM_OBST_BOX_MAX", 0x322, false, 8, kBoxMax},
-                                     {"ZM_OBST_END", 0x323, false, 8, kEnd}};
+                                     {"ZM_OBST_END", 0x323, false, 8, kEnd},
+                                     {"ZM_OBST_BOX_AGE", 0x324, false, 8, kBoxAge}};
 constexpr double kReachM = 3276.0;  // what 16 bits of decimetres hold around the anchor
 
 CanFrame blank(std::uint32_t id, bool extended, double time_s) {
@@ -84,6 +88,13 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
   std::size_t sent = 0;
   for (std::size_t k = 0; k < sending; ++k) {
     const ObstacleBox& box = boxes[order[k]];
+    const double age_s = time_s - box.last_seen_s;
+    const bool report_age = age_s > kObstacleAgeReportedS;
+    if (n + 2 + (report_age ? 1 : 0) + 1 > frames_per_update_) {  // the AGE frames used it up
+      counters_.boxes_over_budget += static_cast<std::int64_t>(sending - k);
+      flags |= kObstacleUpdateTruncated;
+      break;
+    }
     const Eigen::Vector2d lo = box.min.head<2>() - anchor, hi = box.max.head<2>() - anchor;
     if (lo.cwiseAbs().maxCoeff() > kReachM || hi.cwiseAbs().maxCoeff() > kReachM ||
         std::abs(box.min.z()) > kReachM || std::abs(box.max.z()) > kReachM) {
@@ -105,6 +116,14 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
       set_raw(&a, kBoxMin[2 + axis], static_cast<std::int64_t>(std::floor(lo3[axis] * 10.0)));
       set_raw(&b, kBoxMax[2 + axis], static_cast<std::int64_t>(std::ceil(hi3[axis] * 10.0)));
     }
+    if (report_age) {
+      CanFrame& c = out[n++] = blank(config_.base_id + 4, config_.extended_ids, time_s);
+      set_raw(&c, kBoxAge[0], id);
+      set_raw(&c, kBoxAge[1], ground);
+      set_raw(&c, kBoxAge[2],
+              static_cast<std::int64_t>(std::min(std::floor(age_s * 10.0), 65535.0)));
+      ++counters_.ages_sent;
+    }
     ++sent;
   }
   out[0] = blank(config_.base_id, config_.extended_ids, time_s);
@@ -122,8 +141,20 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
 }
 
 bool ObstacleCanDecoder::feed(const CanFrame& f) {
-  if (f.dlc != 8 || f.id < base_id_ || f.id > base_id_ + 3) return false;
+  if (f.dlc != 8 || f.id < base_id_ || f.id > base_id_ + 4) return false;
   const std::uint32_t kind = f.id - base_id_;
+  if (kind == 4) {
+    // The age of the box just completed (BOX_MIN + BOX_MAX of the same id).
+    if (!open_) return false;
+    if (have_min_ || count_ == 0 ||
+        static_cast<std::uint16_t>(get_raw(f, kBoxAge[0])) != boxes_[count_ - 1].id) {
+      ++broken_;
+      open_ = false;
+      return false;
+    }
+    boxes_[count_ - 1].age_s = get_physical(f, kBoxAge[2]);
+    return false;
+  }
   if (kind == 0) {
     if (open_) ++broken_;
     open_ = true;

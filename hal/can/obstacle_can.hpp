@@ -1,5 +1,7 @@
 // Obstacle boxes to the flight controller over CAN (layout: config/can/zonemap-obstacles.dbc).
-// One map update is BEGIN, then BOX_MIN + BOX_MAX per box, then END; BEGIN and
+// One map update is BEGIN, then BOX_MIN + BOX_MAX per box (+ BOX_AGE for a box
+// not seen for over a second: the frames stay two per box while the vehicle
+// looks at what it flies towards), then END; BEGIN and
 // END carry the same generation counter, so the receiver knows when it holds a
 // complete update and which boxes belong together. Corners are decimetres
 // relative to an anchor point (multiples of 100 m, in BEGIN) in the map's world
@@ -22,7 +24,7 @@
 namespace zonemap::can {
 
 struct ObstacleCanConfig {
-  std::uint32_t base_id = 0x320;  // BEGIN, BOX_MIN, BOX_MAX, END = base .. base + 3
+  std::uint32_t base_id = 0x320;  // BEGIN, BOX_MIN, BOX_MAX, END, BOX_AGE = base .. base + 4
   bool extended_ids = false;
   double rate_hz = 5.0;              // map updates per second
   double max_frames_per_s = 1000.0;  // the bus budget for this output
@@ -34,6 +36,10 @@ inline constexpr std::uint8_t kObstacleUpdateOutOfRange = 1u << 1;  // some beyo
 // The boxes' world frame, said in every update: set = z down (NED), clear = z up.
 // Boxes are world-frame, so no camera mount enters them.
 inline constexpr std::uint8_t kObstacleWorldZDown = 1u << 2;
+// A box last seen longer ago than this gets a BOX_AGE frame (AGE: seconds since
+// it last stood in the camera's view, 0.1 s, saturating at 6553.5 s); a box
+// without one was seen within this time of the update.
+inline constexpr double kObstacleAgeReportedS = 1.0;
 
 std::span<const MessageSpec> obstacle_messages();
 
@@ -42,6 +48,7 @@ struct ObstacleCanCounters {
   std::int64_t boxes_sent = 0;
   std::int64_t boxes_over_budget = 0;  // left out of an update (farthest first)
   std::int64_t boxes_out_of_range = 0;
+  std::int64_t ages_sent = 0;  // BOX_AGE frames
 };
 
 class ObstacleCanEncoder {
@@ -70,6 +77,7 @@ struct DecodedObstacleBox {
   std::uint16_t id = 0;
   bool ground = false;
   Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
+  double age_s = 0.0;  // from BOX_AGE; 0: seen within kObstacleAgeReportedS
 };
 
 class ObstacleCanDecoder {

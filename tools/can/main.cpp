@@ -55,10 +55,11 @@ int main(int argc, char** argv) {
                 "INS", zonemap_ins_messages());
     } else if (profile == "obstacles") {
       write_dbc(std::cout,
-                "zonemap obstacle boxes: BEGIN, BOX_MIN+BOX_MAX per box (nearest first), END "
-                "with the same GENERATION. Corners in the map's world frame relative to ANCHOR "
-                "(dm); END FLAGS bit 0 cut short, bit 1 some out of range, bit 2 world z down "
-                "(NED; clear: z up). No camera mount enters the boxes.",
+                "zonemap obstacle boxes: BEGIN, BOX_MIN+BOX_MAX per box (nearest first; "
+                "BOX_AGE after them when the box was last seen over 1 s ago), END with the same "
+                "GENERATION. Corners in the map's world frame relative to ANCHOR (dm); END FLAGS "
+                "bit 0 cut short, bit 1 some out of range, bit 2 world z down (NED; clear: z up). "
+                "No camera mount enters the boxes.",
                 "ZONEMAP", obstacle_messages());
     } else {
       return usage();

@@ -87,17 +87,24 @@ class LcmLogPoseSource final : public hal::PoseSource {
   std::int64_t messages_ = 0, malformed_ = 0, wrong_frame_ = 0, solutions_ = 0;
 };
 
+// Where encoded messages go: an LCM provider (LcmPublisher) or, on a desk, a log.
+class LcmMessageOut {
+ public:
+  virtual ~LcmMessageOut() = default;
+  virtual bool publish(const char* channel, const void* data, std::size_t size, double now_s) = 0;
+};
+
 // Publishes encoded messages; counts what could not be sent. With
 // background_restart the provider is (re)started by a keeper thread, so a provider
 // that is down never costs the publishing (real-time) thread an allocation: the
 // publisher only ever loads an atomic pointer.
-class LcmPublisher {
+class LcmPublisher final : public LcmMessageOut {
  public:
   explicit LcmPublisher(const std::string& url, bool background_restart = false);
-  ~LcmPublisher();
+  ~LcmPublisher() override;
   LcmPublisher(const LcmPublisher&) = delete;
   LcmPublisher& operator=(const LcmPublisher&) = delete;
-  bool publish(const char* channel, const void* data, std::size_t size, double now_s);
+  bool publish(const char* channel, const void* data, std::size_t size, double now_s) override;
   std::int64_t published() const { return published_; }
   std::int64_t failed() const { return failed_; }
   std::int64_t provider_down() const { return provider_down_; }

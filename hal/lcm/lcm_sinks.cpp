@@ -4,10 +4,16 @@
 
 namespace zonemap::lcm_link {
 
-LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config)
-    : config_(config),
-      publisher_(config.url, true),
-      map_(config.max_boxes, config.max_rects_per_box) {
+LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config) : LcmObstacleSink(config, nullptr) {
+  publisher_ = std::make_unique<LcmPublisher>(config.url, true);
+  out_ = publisher_.get();
+}
+
+LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut& out)
+    : LcmObstacleSink(config, &out) {}
+
+LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut* out)
+    : config_(config), out_(out), map_(config.max_boxes, config.max_rects_per_box) {
   health_.num_counters = hal::HealthSnapshot::kMaxNamed;
   health_.counter_names.assign(hal::HealthSnapshot::kMaxNamed, std::string(63, 'x'));
   health_.counter_values.assign(hal::HealthSnapshot::kMaxNamed, 0);
@@ -34,7 +40,7 @@ void LcmObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (size == 0) {
     ++encode_failures_;
   } else {
-    publisher_.publish(config_.map_channel.c_str(), bytes, size, now_s);
+    send(config_.map_channel, bytes, size, now_s);
   }
   const ObstacleDistances d =
       obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
@@ -44,8 +50,7 @@ void LcmObstacleSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (n <= 0) {
     ++encode_failures_;
   } else {
-    publisher_.publish(config_.distance_channel.c_str(), buffer_.data(),
-                       static_cast<std::size_t>(n), now_s);
+    send(config_.distance_channel, buffer_.data(), static_cast<std::size_t>(n), now_s);
   }
 }
 
@@ -82,8 +87,7 @@ void LcmObstacleSink::publish_health(const hal::HealthSnapshot& h, double now_s)
     ++encode_failures_;
     return;
   }
-  publisher_.publish(config_.health_channel.c_str(), buffer_.data(), static_cast<std::size_t>(n),
-                     now_s);
+  send(config_.health_channel, buffer_.data(), static_cast<std::size_t>(n), now_s);
   // The frames and the mount, beside the health: a consumer can tell a wrong mount.
   mount_.utime = m.utime;
   mount_.world_frame =
@@ -93,15 +97,28 @@ void LcmObstacleSink::publish_health(const hal::HealthSnapshot& h, double now_s)
     ++encode_failures_;
     return;
   }
-  publisher_.publish(config_.mount_channel.c_str(), buffer_.data(), static_cast<std::size_t>(k),
-                     now_s);
+  send(config_.mount_channel, buffer_.data(), static_cast<std::size_t>(k), now_s);
+}
+
+void LcmObstacleSink::send(const std::string& channel, const std::uint8_t* bytes, std::size_t size,
+                           double now_s) {
+  if (out_->publish(channel.c_str(), bytes, size, now_s)) {
+    ++out_published_;
+  } else {
+    ++out_failed_;
+  }
 }
 
 void LcmObstacleSink::report(hal::HealthSnapshot* h) const {
-  h->add("lcm_out_published", publisher_.published());
-  h->add("lcm_out_failed", publisher_.failed() + encode_failures_);
-  h->add("lcm_out_provider_down", publisher_.provider_down());
-  h->add("lcm_out_start_failures", publisher_.start_failures());
+  if (publisher_ == nullptr) {
+    h->add("lcm_out_published", out_published_);
+    h->add("lcm_out_failed", out_failed_ + encode_failures_);
+    return;
+  }
+  h->add("lcm_out_published", publisher_->published());
+  h->add("lcm_out_failed", publisher_->failed() + encode_failures_);
+  h->add("lcm_out_provider_down", publisher_->provider_down());
+  h->add("lcm_out_start_failures", publisher_->start_failures());
 }
 
 }  // namespace zonemap::lcm_link

@@ -4,6 +4,7 @@
 // buffers; a provider that is down is retried with backoff (counted).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,15 +35,22 @@ struct LcmOutputConfig {
 class LcmObstacleSink final : public hal::ObstacleSink {
  public:
   explicit LcmObstacleSink(const LcmOutputConfig& config);
+  // Messages to `out` instead of the provider at config.url.
+  LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut& out);
   const char* name() const override { return "obstacles and health over LCM"; }
   void publish(const hal::ObstacleUpdate& update, double now_s) override;
   void publish_health(const hal::HealthSnapshot& health, double now_s) override;
   void report(hal::HealthSnapshot* health) const override;
-  bool ready() const { return publisher_.ready(); }  // the provider has started
+  // The provider has started (always, with messages to an LcmMessageOut).
+  bool ready() const { return publisher_ == nullptr || publisher_->ready(); }
 
  private:
+  LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut* out);
+  void send(const std::string& channel, const std::uint8_t* bytes, std::size_t size, double now_s);
+
   LcmOutputConfig config_;
-  LcmPublisher publisher_;
+  std::unique_ptr<LcmPublisher> publisher_;  // null with an LcmMessageOut
+  LcmMessageOut* out_ = nullptr;
   ObstacleMapMessage map_;
   zonemap_lcm::obstacle_distance_t distance_;
   zonemap_lcm::health_t health_;
@@ -51,6 +59,7 @@ class LcmObstacleSink final : public hal::ObstacleSink {
   std::vector<std::uint8_t> buffer_;  // distance and health messages
   double last_s_ = -1e300;
   std::int64_t encode_failures_ = 0;
+  std::int64_t out_published_ = 0, out_failed_ = 0;  // through an LcmMessageOut
 };
 
 }  // namespace zonemap::lcm_link

@@ -36,6 +36,11 @@ MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config) : config_(config)
   ids_.component_id = static_cast<std::uint8_t>(config.component_id);
 }
 
+MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config, DatagramOut& out)
+    : MavlinkUdpSink(config) {
+  out_ = &out;
+}
+
 MavlinkUdpSink::~MavlinkUdpSink() {
   if (fd_ >= 0) ::close(fd_);
 }
@@ -64,10 +69,15 @@ bool MavlinkUdpSink::open(std::string* error) {
   return true;
 }
 
-void MavlinkUdpSink::send(const std::uint8_t* frame, std::size_t size) {
-  const ssize_t sent = ::sendto(fd_, frame, size, MSG_DONTWAIT,
-                                reinterpret_cast<const sockaddr*>(address_), sizeof(sockaddr_in));
-  if (sent == static_cast<ssize_t>(size)) {
+void MavlinkUdpSink::send(const std::uint8_t* frame, std::size_t size, double now_s) {
+  bool sent = false;
+  if (out_ != nullptr) {
+    sent = out_->send(frame, size, now_s);
+  } else {
+    sent = ::sendto(fd_, frame, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(address_),
+                    sizeof(sockaddr_in)) == static_cast<ssize_t>(size);
+  }
+  if (sent) {
     ++sent_;
   } else {
     ++failed_;
@@ -75,7 +85,7 @@ void MavlinkUdpSink::send(const std::uint8_t* frame, std::size_t size) {
 }
 
 void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
-  if (fd_ < 0) return;
+  if (!can_send()) return;
   ++updates_;
   distances_ =
       obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
@@ -93,11 +103,11 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
 }
 
 void MavlinkUdpSink::tick(double now_s) {
-  if (fd_ < 0) return;
+  if (!can_send()) return;
   if (now_s - last_heartbeat_s_ >= 1.0) {
     last_heartbeat_s_ = now_s;
     std::uint8_t frame[12 + kHeartbeatPayload];
-    send(frame, encode_heartbeat(ids_, sequence_++, frame));
+    send(frame, encode_heartbeat(ids_, sequence_++, frame), now_s);
     ++heartbeats_;
   }
   if (now_s < next_send_s_ || update_s_ < -1e299) return;
@@ -121,7 +131,7 @@ void MavlinkUdpSink::schedule_next(double now_s) {
 void MavlinkUdpSink::send_obstacles(double now_s) {
   schedule_next(now_s);
   std::uint8_t frame[kMaxFrameBytes];
-  send(frame, encode_obstacle_distance(distances_, time_usec_, ids_, sequence_++, frame));
+  send(frame, encode_obstacle_distance(distances_, time_usec_, ids_, sequence_++, frame), now_s);
   // One scan: every obstacle of this update shares its time_boot_ms.
   const auto boot_ms = static_cast<std::uint32_t>(std::llround(std::max(now_s, 0.0) * 1000.0));
   for (std::size_t i = 0; i < nearest_count_; ++i) {
@@ -134,7 +144,7 @@ void MavlinkUdpSink::send_obstacles(double now_s) {
     o.min_distance = static_cast<float>(config_.sectors.min_distance_m);
     o.max_distance = static_cast<float>(config_.sectors.max_distance_m);
     std::uint8_t frame3d[12 + kObstacleDistance3dPayload];
-    send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d));
+    send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d), now_s);
     ++obstacles_3d_;
   }
 }

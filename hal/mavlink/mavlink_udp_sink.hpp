@@ -29,10 +29,19 @@ struct MavlinkUdpConfig {
 // Empty when usable, else why not.
 std::string validate(const MavlinkUdpConfig& config);
 
+// Where the datagrams go instead of a socket (a replay on a desk: a telemetry log).
+class DatagramOut {
+ public:
+  virtual ~DatagramOut() = default;
+  virtual bool send(const std::uint8_t* datagram, std::size_t size, double now_s) = 0;
+};
+
 class MavlinkUdpSink final : public hal::ObstacleSink {
  public:
   static constexpr int kMaxObstacles3d = 64;
   explicit MavlinkUdpSink(const MavlinkUdpConfig& config);
+  // Datagrams to `out`, not to a socket (no open()); the config must validate.
+  MavlinkUdpSink(const MavlinkUdpConfig& config, DatagramOut& out);
   ~MavlinkUdpSink() override;
   // False with the reason when the address is unusable.
   bool open(std::string* error);
@@ -50,11 +59,13 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
  private:
   void send_obstacles(double now_s);
   void schedule_next(double now_s);
-  void send(const std::uint8_t* frame, std::size_t size);
+  bool can_send() const { return fd_ >= 0 || out_ != nullptr; }
+  void send(const std::uint8_t* frame, std::size_t size, double now_s);
 
   MavlinkUdpConfig config_;
   LinkIds ids_;
   int fd_ = -1;
+  DatagramOut* out_ = nullptr;
   unsigned char address_[16] = {};  // sockaddr_in
   std::uint8_t sequence_ = 0;
   // The newest update, as sent (sectors, nearest obstacles) and when it came.

@@ -31,6 +31,8 @@ constexpr const char* kUsage =
     "  --live          the runtime with newest-frame-wins (drops counted)\n"
     "  --rate HZ       pace the frames like a camera at HZ (implies --pipeline)\n"
     "  --mlock         lock the process's memory (needs CAP_IPC_LOCK)\n"
+    "  --links DIR     what the vehicle links would carry, stamped with frame times:\n"
+    "                  DIR/obstacles.candump (CAN), .lcmlog (LCM), .tlog (MAVLink)\n"
     "  --help          this text\n";
 
 // An ASL stereo recording becomes a section-1 sequence in OUT/sequence first (the
@@ -137,6 +139,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "zonemap-replay: --rate needs a frame rate > 0\n");
         ok = false;
       }
+    } else if (arg == "--links") {
+      ok = value(&options.links_dir);
     } else if (arg == "--mlock") {
       pipeline.lock_memory = true;
     } else if (!arg.empty() && arg[0] != '-' && options.sequence_dir.empty()) {
@@ -146,6 +150,12 @@ int main(int argc, char** argv) {
       ok = false;
     }
     if (!ok) return 2;
+  }
+  if (pipelined && !options.links_dir.empty()) {
+    std::fprintf(stderr,
+                 "zonemap-replay: --links needs the single-threaded replay (its files "
+                 "are stamped with frame times; the threaded runtime's with the clock)\n");
+    return 2;
   }
   if (options.sequence_dir.empty() || options.config_path.empty() || out_dir.empty()) {
     std::fputs(kUsage, stderr);

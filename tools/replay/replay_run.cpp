@@ -138,6 +138,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
                  mebibytes(stats_.local_grid_bytes), mebibytes(stats_.feature_map_bytes),
                  config_.features.capacity, mebibytes(stats_.depth_table_bytes));
   }
+  if (!options.links_dir.empty() && !open_links(error)) return false;
   return options.record_path.empty() || open_recorder(error);
 }
 
@@ -177,16 +178,24 @@ void ReplayRun::frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometr
   }
 }
 
-// The merged boxes (ground too, as boxes.csv has them) with their footprints and
-// the sectors the map has seen around the vehicle.
-void ReplayRun::record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final) {
+// The merged boxes with their footprints and the sectors the map has seen around
+// the vehicle.
+hal::ObstacleUpdate ReplayRun::fill_update(hal::MergedUpdate& storage, bool include_ground,
+                                           double time_s, const Eigen::Isometry3d& world_T_camera) {
   const CameraModel& cam = sequence_.camera();
-  hal::ObstacleUpdate update = update_.fill(
-      *features_, true, time_s, world_T_camera * cam.body_T_camera.inverse(), cam.world_z_up);
+  hal::ObstacleUpdate update =
+      storage.fill(*features_, include_ground, time_s, world_T_camera * cam.body_T_camera.inverse(),
+                   cam.world_z_up);
   SectorConfig sectors;
   sectors.max_distance_m = std::min(sectors.max_distance_m, config_.d_max_m);
   update.sectors_observed = observed_sectors(mapper_->zones(), config_.cell_size_m,
                                              update.world_T_body, update.world_z_up, sectors);
+  return update;
+}
+
+// Ground too, as boxes.csv has them.
+void ReplayRun::record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final) {
+  const hal::ObstacleUpdate update = fill_update(update_, true, time_s, world_T_camera);
   recorded_boxes_s_ = time_s;
   boxes_changed_ = false;
   if (final) {
@@ -194,6 +203,22 @@ void ReplayRun::record_boxes(double time_s, const Eigen::Isometry3d& world_T_cam
   } else {
     recorder_->record_boxes(update);
   }
+}
+
+// The links as the daemon feeds them: obstacles only, every publish_every_frames
+// mapped frames and once at the end.
+bool ReplayRun::open_links(std::string* error) {
+  SectorConfig sectors;
+  sectors.max_distance_m = std::min(sectors.max_distance_m, config_.d_max_m);
+  links_update_.reserve(features_->capacity(), kRecordedRects);
+  links_every_frames_ = runtime::PipelineOptions::from(config_.runtime).publish_every_frames;
+  links_ = std::make_unique<LinkCapture>();
+  return links_->open(options_.links_dir, sequence_.camera(), sectors, features_->capacity(),
+                      error);
+}
+
+void ReplayRun::capture_links(double time_s, const Eigen::Isometry3d& world_T_camera) {
+  links_->publish(fill_update(links_update_, false, time_s, world_T_camera), time_s);
 }
 
 void ReplayRun::record_health(double time_s) {
@@ -275,6 +300,8 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     }
     account_mapped_frame(i, pose, report, ms);
     record_frame(frame, pose);
+    if (links_ && stats_.frames_mapped % links_every_frames_ == 0)
+      capture_links(frame.time_s, pose);
     const auto now = std::chrono::steady_clock::now();
     if (show_progress && (now - last_progress > std::chrono::milliseconds(250) || i + 1 == n)) {
       last_progress = now;
@@ -376,6 +403,10 @@ void ReplayRun::finish() {
   stats_.features = static_cast<std::int64_t>(features_->count());
   stats_.feature_counters = features_->counters();
   if (recorder_) close_recording();
+  if (links_) {
+    capture_links(last_time_s_, last_world_T_camera_);
+    links_->close();
+  }
   warn_if_ground_out_of_reach();
   finished_ = true;
 }

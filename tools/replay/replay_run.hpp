@@ -12,6 +12,7 @@
 #include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/runtime/pipeline.hpp"
+#include "tools/replay/link_capture.hpp"
 #include "zonemap/extraction_schedule.hpp"
 #include "zonemap/mapper.hpp"
 
@@ -25,6 +26,7 @@ struct ReplayOptions {
   bool quiet = false;          // no start-up report or rejection log
   std::string record_path;     // an MCAP recording of the run (empty: none)
   int record_depth_every = 5;  // every n-th mapped frame's depth into the recording
+  std::string links_dir;       // what the vehicle links would carry, as files (empty: none)
 };
 
 class ReplayRun : private runtime::MappingHooks {
@@ -82,7 +84,11 @@ class ReplayRun : private runtime::MappingHooks {
   void log_rejection(const char* kind, std::int64_t count, const std::string& message) const;
   bool open_recorder(std::string* error);
   void record_frame(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose);
+  hal::ObstacleUpdate fill_update(hal::MergedUpdate& storage, bool include_ground, double time_s,
+                                  const Eigen::Isometry3d& world_T_camera);
   void record_boxes(double time_s, const Eigen::Isometry3d& world_T_camera, bool final);
+  bool open_links(std::string* error);
+  void capture_links(double time_s, const Eigen::Isometry3d& world_T_camera);
   void record_health(double time_s);
   void close_recording();
   bool write_report(const std::string& out_dir, std::string* error);
@@ -108,6 +114,10 @@ class ReplayRun : private runtime::MappingHooks {
   runtime::PipelineStats pipeline_stats_;
   // The recording (OUT/run.mcap): its buffers and when each channel was last fed.
   std::unique_ptr<record::FlightRecorder> recorder_;
+  // The link capture (options.links_dir) and its update storage.
+  std::unique_ptr<LinkCapture> links_;
+  hal::MergedUpdate links_update_;
+  int links_every_frames_ = 3;
   hal::MergedUpdate update_;
   double recorded_occupied_s_ = -INFINITY, recorded_boxes_s_ = -INFINITY;
   double recorded_health_s_ = -INFINITY;

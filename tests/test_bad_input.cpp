@@ -8,7 +8,7 @@
 #include <fstream>
 #include <vector>
 
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "hal/replay/sequence.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "replay_support.hpp"

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "hal/ins_log/ins_logs.hpp"
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
 #include "hal/os/realtime.hpp"
@@ -287,6 +288,7 @@ TEST(ReplaySequence, PosesFromInsLcmlogWhenThereIsNoGroundTruthMapTheSame) {
   std::filesystem::remove(f.sequence + "/ins.lcmlog");
   hal::ReplaySequence sequence;
   std::string error;
-  EXPECT_FALSE(sequence.open(f.sequence, "", MapConfig{}, &error));
+  const ins_log::SequenceInsLogs ins_logs;
+  EXPECT_FALSE(sequence.open(f.sequence, "", MapConfig{}, &error, &ins_logs));
   EXPECT_NE(error.find("no pose source"), std::string::npos) << error;
 }

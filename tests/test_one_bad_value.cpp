@@ -16,7 +16,7 @@
 #include "hal/can/ins_can.hpp"
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/output/run_outputs.hpp"
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"

@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <unordered_set>
 
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"

@@ -33,4 +33,21 @@ bool InsPoseFilter::pass(InsSolution solution, PoseSink& sink, double now_s) {
   return true;
 }
 
+PoseLogRead read_to_end(PoseSource& log, PoseTrack* track) {
+  struct TrackSink final : PoseSink {
+    PoseTrack* track = nullptr;
+    std::int64_t refused = 0;
+    void push(const PoseSample& p) override {
+      if (!track->append(p)) ++refused;
+    }
+  } sink;
+  sink.track = track;
+  while (log.poll(sink, 0) != PollResult::kEnd) {
+  }
+  PoseLogRead read;
+  read.refused_by_track = sink.refused;
+  read.counters = log.counters();
+  return read;
+}
+
 }  // namespace zonemap::hal

@@ -6,8 +6,12 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
+#include <string>
 
 #include <Eigen/Geometry>
+
+#include "zonemap/camera.hpp"
 
 #include "zonemap/ins_gate.hpp"
 #include "zonemap/pose_track.hpp"
@@ -39,6 +43,26 @@ class PoseSource {
   virtual PollResult poll(PoseSink& sink, int wait_ms) = 0;
   virtual PoseSourceCounters counters() const = 0;
   virtual const char* name() const = 0;
+};
+
+// A recorded pose source (an INS log) read to its end into `track`, as a replay
+// uses it: the poses the track refused (out of order) and the source's counters.
+struct PoseLogRead {
+  std::int64_t refused_by_track = 0;
+  PoseSourceCounters counters;
+};
+PoseLogRead read_to_end(PoseSource& log, PoseTrack* track);
+
+// The INS log a recorded sequence carries instead of ground truth (FORMATS.md §1:
+// ins.lcmlog, ins.candump). Decoding it is the vehicle links' work (hal/ins_log);
+// the replay back-end asks through this, so that it links no vehicle link.
+class SequenceInsLog {
+ public:
+  virtual ~SequenceInsLog() = default;
+  // The log's pose source (camera poses through the gate); null with *error when
+  // `dir` holds no INS log or it cannot be opened.
+  virtual std::unique_ptr<PoseSource> open(const std::string& dir, const CameraModel& camera,
+                                           const InsGateConfig& gate, std::string* error) const = 0;
 };
 
 // What a pose source logs, each with a rate limit of its own: the INS gate's

@@ -93,36 +93,4 @@ bool write_stats_json(const std::string& path, const RunStats& stats, std::strin
 // Returns the number of points written, or -1 on error.
 std::int64_t write_occupied_ply(const std::string& path, Mapper& mapper, std::string* error);
 
-// The paper's height profile: for each (x, y) column the highest occupied cell.
-// Covers a fixed rectangle of columns reserved at construction; zones are folded
-// in when they are discarded (it is a ZoneObserver) and once more at the end.
-class HeightProfile : public ZoneObserver {
- public:
-  HeightProfile(std::int32_t min_x, std::int32_t min_y, std::int32_t max_x, std::int32_t max_y,
-                FusedCell occupied_threshold, bool world_z_up);
-
-  void fold(const ZoneView& zone);
-  void on_zone_allocated(ZoneView&) override {}
-  void on_zone_discarding(const ZoneView& zone) override { fold(zone); }
-
-  // Columns seen while folding that fell outside the reserved rectangle.
-  std::int64_t columns_outside() const { return columns_outside_; }
-  // Highest occupied cell index (in "up" terms: z, or -z for NED) or false if none.
-  bool top(std::int32_t x, std::int32_t y, std::int32_t* top_cell) const;
-
-  // Draws the picture: colour = height of the top cell, blank = unknown, the
-  // trajectory (world positions) in black, a colour bar with heights in metres and
-  // a scale bar. `objects` (optional) are outlined as rectangles [min x, min y, max x, max y].
-  bool write_png(const std::string& path, double cell_size_m,
-                 const std::vector<Eigen::Vector3d>& trajectory,
-                 const std::vector<Eigen::Vector4d>& outlines, std::string* error) const;
-
- private:
-  std::int32_t min_x_, min_y_, width_, height_;
-  FusedCell threshold_;
-  bool z_up_;
-  std::vector<std::int32_t> tops_;
-  std::int64_t columns_outside_ = 0;
-};
-
 }  // namespace zonemap::hal

@@ -6,9 +6,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "hal/can/can_pose_source.hpp"
-#include "hal/lcm/lcm_link.hpp"
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "hal/replay/yaml_config.hpp"
 
 namespace zonemap::hal {
@@ -191,7 +189,8 @@ bool parse_trajectory(std::istream& in, const std::string& path, PoseTrack* trac
 }
 
 bool ReplaySequence::open(const std::string& dir, const std::string& camera_path,
-                          const MapConfig& config, std::string* error) {
+                          const MapConfig& config, std::string* error,
+                          const SequenceInsLog* ins_logs) {
   if (!std::filesystem::is_directory(dir)) {
     *error = dir + ": not a directory";
     return false;
@@ -236,39 +235,16 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
     return load_trajectory(trajectory, &poses_, &poses_rejected_, &warnings_, error, filter,
                            &pose_counts_);
   }
-  // The INS's own records (FORMATS.md §1): an LCM log of ins_state_t on INS_STATE,
-  // or a candump log in the zonemap INS profile (INS clock), both through the gate.
-  const std::string lcm_log = join(dir, "ins.lcmlog"), candump = join(dir, "ins.candump");
-  std::unique_ptr<PoseSource> source;
-  if (std::filesystem::exists(lcm_log)) {
-    auto log = std::make_unique<lcm_link::LcmLogPoseSource>(
-        "INS_STATE", camera_.world_z_up, filter.gate, camera_.body_T_camera, 0.0);
-    if (!log->open(lcm_log, error)) return false;
-    source = std::move(log);
-  } else if (std::filesystem::exists(candump)) {
-    can::InsCanConfig profile;
-    profile.profile = can::InsCanProfile::kZonemapIns;
-    profile.time_source = can::InsTimeSource::kIns;
-    auto log =
-        std::make_unique<can::CandumpPoseSource>(profile, filter.gate, camera_.body_T_camera, 0.0);
-    if (!log->open(candump, error)) return false;
-    source = std::move(log);
-  } else {
-    *error = dir + ": no pose source (groundtruth.txt, ins.lcmlog or ins.candump)";
+  // The INS's own records (FORMATS.md §1), decoded by the vehicle links.
+  if (ins_logs == nullptr) {
+    *error = dir + ": no groundtruth.txt (its INS log needs the vehicle links' decoders)";
     return false;
   }
-  struct TrackSink final : PoseSink {
-    PoseTrack* track;
-    int* refused;
-    void push(const PoseSample& p) override {
-      if (!track->append(p)) ++*refused;
-    }
-  } sink;
-  sink.track = &poses_;
-  sink.refused = &poses_rejected_;
-  while (source->poll(sink, 0) != PollResult::kEnd) {
-  }
-  const PoseSourceCounters c = source->counters();
+  const std::unique_ptr<PoseSource> source = ins_logs->open(dir, camera_, filter.gate, error);
+  if (!source) return false;
+  const PoseLogRead read = read_to_end(*source, &poses_);
+  poses_rejected_ = static_cast<int>(read.refused_by_track);
+  const PoseSourceCounters& c = read.counters;
   poses_rejected_ += static_cast<int>(c.gate.rejected_total() + c.malformed);
   pose_counts_.log_malformed = c.malformed;
   pose_counts_.log_implausible = c.gate.rejected_total();

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hal/frames/frame_source.hpp"
+#include "hal/ins/pose_source.hpp"
 #include "zonemap/camera.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/ins_gate.hpp"
@@ -72,10 +73,10 @@ bool parse_trajectory(std::istream& in, const std::string& name, PoseTrack* trac
 
 class ReplaySequence {
  public:
-  // camera_path: empty to use DIR/camera.yaml. depth_scale_override > 0 replaces
-  // the camera's depth scale (TUM RGB-D: 5000).
+  // camera_path: empty to use DIR/camera.yaml. Poses from DIR/groundtruth.txt, or
+  // else from the INS log `ins_logs` opens (none given: groundtruth.txt only).
   bool open(const std::string& dir, const std::string& camera_path, const MapConfig& config,
-            std::string* error);
+            std::string* error, const SequenceInsLog* ins_logs = nullptr);
 
   std::size_t frame_count() const { return frames_.size(); }
   const FrameListEntry& entry(std::size_t i) const { return frames_[i]; }

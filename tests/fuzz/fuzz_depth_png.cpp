@@ -1,7 +1,7 @@
 // Depth PNG decoding (16-bit, the replay format): any bytes, never a crash.
 #include <vector>
 
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "tests/fuzz/fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -1,7 +1,7 @@
 // Intensity (left image) PNG decoding, 8-bit.
 #include <vector>
 
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 #include "tests/fuzz/fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

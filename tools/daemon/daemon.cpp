@@ -8,6 +8,7 @@
 
 #include "hal/can/can_pose_source.hpp"
 #include "hal/can/obstacle_can_sink.hpp"
+#include "hal/ins_log/ins_logs.hpp"
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
@@ -17,18 +18,6 @@
 #include "hal/v4l2/v4l2_source.hpp"
 
 namespace zonemap::daemon {
-namespace {
-
-// Collects a log's poses (replayed with the frames, like groundtruth.txt).
-struct TrackSink final : hal::PoseSink {
-  PoseTrack* track;
-  std::int64_t refused = 0;
-  void push(const PoseSample& p) override {
-    if (!track->append(p)) ++refused;
-  }
-};
-
-}  // namespace
 
 VehicleDaemon::~VehicleDaemon() = default;
 
@@ -38,7 +27,10 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   using Frames = VehicleConfig::FrameSourceKind;
   using Poses = VehicleConfig::PoseSourceKind;
   if (config.frames == Frames::kReplay) {
-    if (!sequence_.open(config.sequence_dir, config.camera_path, map_config_, error)) return false;
+    const ins_log::SequenceInsLogs ins_logs;
+    if (!sequence_.open(config.sequence_dir, config.camera_path, map_config_, error, &ins_logs)) {
+      return false;
+    }
     camera_ = sequence_.camera();
     frames_ = std::make_unique<hal::ReplayFrameSource>(sequence_, config.replay_rate_hz);
   } else {
@@ -67,25 +59,19 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
       break;
     case Poses::kLcmLog:
     case Poses::kCandump: {
-      std::unique_ptr<hal::PoseSource> log;
-      if (config.poses == Poses::kLcmLog) {
-        auto lcm = std::make_unique<lcm_link::LcmLogPoseSource>(
-            config.lcm_channel, z_up, config_.gate, mount, config.time_offset_s);
-        if (!lcm->open(config.pose_log_path, error)) return false;
-        log = std::move(lcm);
-      } else {
-        auto candump = std::make_unique<can::CandumpPoseSource>(config.can_profile, config_.gate,
-                                                                mount, config.time_offset_s);
-        if (!candump->open(config.pose_log_path, error)) return false;
-        log = std::move(candump);
-      }
+      ins_log::InsLogSettings settings;
+      settings.kind = config.poses == Poses::kLcmLog ? ins_log::InsLogSettings::Kind::kLcmLog
+                                                     : ins_log::InsLogSettings::Kind::kCandump;
+      settings.path = config.pose_log_path;
+      settings.lcm_channel = config.lcm_channel;
+      settings.can_profile = config.can_profile;
+      settings.time_offset_s = config.time_offset_s;
+      const std::unique_ptr<hal::PoseSource> log =
+          ins_log::open_ins_log(settings, config_.gate, mount, z_up, error);
+      if (!log) return false;
       // A log is read whole at start and replayed with the frames.
       log_poses_ = PoseTrack(map_config_.pose_max_gap_s, map_config_.pose_tolerance_s);
-      TrackSink sink;
-      sink.track = &log_poses_;
-      while (log->poll(sink, 0) != hal::PollResult::kEnd) {
-      }
-      pose_counters_ = log->counters();
+      pose_counters_ = hal::read_to_end(*log, &log_poses_).counters;
       if (log_poses_.size() == 0) {
         *error = config.pose_log_path + ": no usable INS solution";
         return false;

@@ -11,7 +11,9 @@
 #include <iterator>
 #include <span>
 
+#include "hal/ins_log/ins_logs.hpp"
 #include "hal/os/allocation_counter.hpp"
+#include "hal/output/height_png.hpp"
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "tools/eval/evaluate.hpp"
@@ -80,7 +82,10 @@ void ReplayRun::log_rejection(const char* kind, std::int64_t count,
 bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   options_ = options;
   if (!hal::load_map_config(options.config_path, &config_, error)) return false;
-  if (!sequence_.open(options.sequence_dir, options.camera_path, config_, error)) return false;
+  const ins_log::SequenceInsLogs ins_logs;
+  if (!sequence_.open(options.sequence_dir, options.camera_path, config_, error, &ins_logs)) {
+    return false;
+  }
   if (sequence_.poses().size() == 0) {
     *error = options.sequence_dir + "/groundtruth.txt: no usable pose";
     return false;
@@ -111,7 +116,7 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   const CellIndex lo_cell = mapper_->cell_of(lo);
   const CellIndex hi_cell = mapper_->cell_of(hi);
   const auto& dims = config_.zone_cells;
-  height_ = std::make_unique<hal::HeightProfile>(
+  height_ = std::make_unique<HeightProfile>(
       lo_cell.x - dims[0] * 3 / 2, lo_cell.y - dims[1] * 3 / 2, hi_cell.x + dims[0] * 3 / 2,
       hi_cell.y + dims[1] * 3 / 2, mapper_->occupied_threshold(), sequence_.camera().world_z_up);
   mapper_->zones().add_observer(height_.get());
@@ -525,8 +530,8 @@ bool ReplayRun::write_outputs(const std::string& out_dir, std::string* error) {
     ++stats_.obstacle_boxes;
     outlines.emplace_back(b.min.x(), b.min.y(), b.max.x(), b.max.y());
   }
-  if (!height_->write_png(out_dir + "/height.png", config_.cell_size_m, trajectory_, outlines,
-                          error)) {
+  if (!hal::write_height_png(out_dir + "/height.png", *height_, config_.cell_size_m, trajectory_,
+                             outlines, error)) {
     return false;
   }
   return hal::write_stats_json(out_dir + "/stats.json", stats_, error) &&

@@ -14,6 +14,7 @@
 #include "hal/runtime/pipeline.hpp"
 #include "tools/replay/link_capture.hpp"
 #include "zonemap/extraction_schedule.hpp"
+#include "zonemap/height_profile.hpp"
 #include "zonemap/mapper.hpp"
 
 namespace zonemap::tools {
@@ -63,7 +64,7 @@ class ReplayRun : private runtime::MappingHooks {
   Mapper& mapper() { return *mapper_; }
   const hal::ReplaySequence& sequence() const { return sequence_; }
   const MapConfig& config() const { return config_; }
-  const hal::HeightProfile& height_profile() const { return *height_; }
+  const HeightProfile& height_profile() const { return *height_; }
   FeatureMap& features() { return *features_; }
   // The merged boxes of boxes.csv (obstacles, then ground when asked).
   std::vector<ObstacleBox> boxes(bool include_ground);
@@ -100,7 +101,7 @@ class ReplayRun : private runtime::MappingHooks {
   MapConfig config_;
   hal::ReplaySequence sequence_;
   std::unique_ptr<Mapper> mapper_;
-  std::unique_ptr<hal::HeightProfile> height_;
+  std::unique_ptr<HeightProfile> height_;
   std::unique_ptr<FeatureMap> features_;
   std::vector<double> extract_ms_;
   hal::RunStats stats_;

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <limits>
 
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 
 namespace zonemap::sim {
 namespace {

@@ -1,4 +1,4 @@
-#include "hal/replay/png_io.hpp"
+#include "hal/codec/png_io.hpp"
 
 #include <png.h>
 

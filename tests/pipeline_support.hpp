@@ -9,7 +9,7 @@
 
 #include "hal/replay/sequence.hpp"
 #include "hal/replay/yaml_config.hpp"
-#include "hal/runtime/pipeline.hpp"
+#include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"

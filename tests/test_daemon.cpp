@@ -22,9 +22,9 @@
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
 #include "hal/os/realtime.hpp"
 #include "hal/output/run_outputs.hpp"
+#include "onboard/vehicle_config.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
-#include "tools/daemon/vehicle_config.hpp"
 #include "tools/replay/replay_run.hpp"
 
 extern char** environ;
@@ -167,9 +167,9 @@ TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
   std::ofstream(path) << "mapping: flight.yaml\nframes: {source: replay, sequence: seq}\n"
                          "poses: {source: can, can_profile: sbg-ecan, byte_order: big,\n"
                          "        ids: {info: 0x230}, origin: [48.1, 11.5, 520.0]}\n";
-  daemon::VehicleConfig c;
+  onboard::VehicleConfig c;
   std::string error;
-  ASSERT_TRUE(daemon::load_vehicle_config(path, &c, &error)) << error;
+  ASSERT_TRUE(onboard::load_vehicle_config(path, &c, &error)) << error;
   EXPECT_EQ(c.mapping_path, dir / "flight.yaml");
   EXPECT_EQ(c.sequence_dir, dir / "seq");
   EXPECT_FALSE(c.can_profile.little_endian);
@@ -189,7 +189,7 @@ TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
        "vehicle.yaml:3: bad value for 'port'"}};
   for (const auto& [text, expected] : bad) {
     std::ofstream(path) << text;
-    EXPECT_FALSE(daemon::load_vehicle_config(path, &c, &error)) << text;
+    EXPECT_FALSE(onboard::load_vehicle_config(path, &c, &error)) << text;
     EXPECT_NE(error.find(expected), std::string::npos) << error;
   }
 }

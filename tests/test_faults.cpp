@@ -13,8 +13,8 @@
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
-#include "hal/runtime/pipeline.hpp"
 #include "pipeline_support.hpp"
+#include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 
 namespace zonemap {

@@ -14,9 +14,9 @@
 
 #include "hal/can/candump.hpp"
 #include "hal/can/ins_can.hpp"
+#include "hal/codec/png_io.hpp"
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/output/run_outputs.hpp"
-#include "hal/codec/png_io.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"

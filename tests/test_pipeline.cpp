@@ -20,8 +20,8 @@
 
 #include "hal/os/doorbell.hpp"
 #include "hal/replay/yaml_config.hpp"
-#include "hal/runtime/pipeline.hpp"
 #include "replay_support.hpp"
+#include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #include "tools/sim/scene.hpp"

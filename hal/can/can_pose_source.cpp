@@ -16,7 +16,7 @@ SocketCanPoseSource::SocketCanPoseSource(const std::string& interface, const Ins
       filter_(gate, body_T_camera, time_offset_s, "INS over SocketCAN") {}
 
 hal::PollResult SocketCanPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
-  const double now = monotonic_now_s();
+  const double now = os::monotonic_now_s();
   if (!link_.ensure_open(now)) {
     filter_.log().log(hal::LogReason::kLinkDown, now, name(), link_.last_error());
     return hal::PollResult::kIdle;

@@ -9,6 +9,7 @@
 #include "hal/can/ins_can.hpp"
 #include "hal/can/socketcan.hpp"
 #include "hal/ins/pose_source.hpp"
+#include "hal/os/clock.hpp"
 
 namespace zonemap::can {
 
@@ -24,7 +25,7 @@ class SocketCanPoseSource final : public hal::PoseSource {
   const char* name() const override { return "INS over SocketCAN"; }
   const CanLinkCounters& link_counters() const { return link_.counters(); }
   const InsCanCounters& decoder_counters() const { return decoder_.counters(); }
-  static double monotonic_offset() { return monotonic_now_s() - realtime_now_s(); }
+  static double monotonic_offset() { return os::monotonic_now_s() - os::realtime_now_s(); }
 
  private:
   InsCanDecoder decoder_;

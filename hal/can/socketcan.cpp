@@ -14,6 +14,8 @@
 #include <cstring>
 #include <ctime>
 
+#include "hal/os/clock.hpp"
+
 namespace zonemap::can {
 namespace {
 
@@ -26,18 +28,6 @@ double seconds(const timespec& ts) {
 }
 
 }  // namespace
-
-double monotonic_now_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return seconds(ts);
-}
-
-double realtime_now_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return seconds(ts);
-}
 
 SocketCan::~SocketCan() {
   close();
@@ -120,7 +110,7 @@ CanIo SocketCan::receive(CanFrame* out) {
   f.fd = static_cast<std::size_t>(n) != CAN_MTU;  // an FD frame does not fit: mark it refused
   f.dlc = std::min<std::uint8_t>(raw.len, 8);
   std::memcpy(f.data.data(), raw.data, 8);
-  f.time_s = realtime_now_s();
+  f.time_s = os::realtime_now_s();
   for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
     if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
       timespec ts{};

@@ -91,8 +91,4 @@ class CanLink final : public CanTransport {
   CanLinkCounters counters_;
 };
 
-// CLOCK_MONOTONIC and CLOCK_REALTIME now, in seconds.
-double monotonic_now_s();
-double realtime_now_s();
-
 }  // namespace zonemap::can

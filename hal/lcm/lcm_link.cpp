@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "hal/lcm/lcm_codec.hpp"
+#include "hal/os/clock.hpp"
 
 namespace zonemap::lcm_link {
 
@@ -89,9 +90,7 @@ void LcmPoseSource::on_message(const lcm_recv_buf_t* rbuf, const char* /*channel
 }
 
 hal::PollResult LcmPoseSource::poll(hal::PoseSink& sink, int wait_ms) {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  now_s_ = static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+  now_s_ = os::monotonic_now_s();
   lcm_t* lcm = subscribed(now_s_);
   if (lcm == nullptr) {
     filter_.log().log(hal::LogReason::kLinkDown, now_s_, name(),

@@ -1,14 +1,15 @@
+#include "hal/replay/replay_frame_source.hpp"
+
 #include <chrono>
 #include <thread>
 
-#include "hal/replay/replay_frame_source.hpp"
+#include "hal/os/clock.hpp"
 
 namespace zonemap::hal {
 
 FrameRead ReplayFrameSource::next(CameraFrame* frame, int /*wait_ms*/, std::string* why) {
-  using Clock = std::chrono::steady_clock;
   if (next_ >= sequence_.frame_count()) return FrameRead::kEnd;
-  const double now = std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
+  const double now = os::monotonic_now_s();
   if (!started_) {
     started_ = true;
     start_s_ = now;

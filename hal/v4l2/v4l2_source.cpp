@@ -12,6 +12,8 @@
 #include <cstring>
 #include <ctime>
 
+#include "hal/os/clock.hpp"
+
 namespace zonemap::v4l2 {
 namespace {
 
@@ -27,12 +29,6 @@ std::string fourcc_text(std::uint32_t f) {
   const char c[5] = {static_cast<char>(f & 0xFF), static_cast<char>((f >> 8) & 0xFF),
                      static_cast<char>((f >> 16) & 0xFF), static_cast<char>((f >> 24) & 0xFF), 0};
   return c;
-}
-
-double monotonic_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
 }
 
 }  // namespace
@@ -156,7 +152,7 @@ bool V4l2FrameSource::reopen_due(double now_s) {
 }
 
 hal::FrameRead V4l2FrameSource::next(hal::CameraFrame* frame, int wait_ms, std::string* why) {
-  if (fd_ < 0 && !(ever_opened_ && reopen_due(monotonic_s()))) {
+  if (fd_ < 0 && !(ever_opened_ && reopen_due(os::monotonic_now_s()))) {
     if (wait_ms > 0) ::poll(nullptr, 0, std::min(wait_ms, 50));  // no device: do not spin
     return hal::FrameRead::kNone;
   }
@@ -170,7 +166,7 @@ hal::FrameRead V4l2FrameSource::next(hal::CameraFrame* frame, int wait_ms, std::
     // The device went away (unplugged, driver reset): reopen with backoff.
     ++device_errors_;
     close_device();
-    next_reopen_s_ = monotonic_s() + backoff_s_;
+    next_reopen_s_ = os::monotonic_now_s() + backoff_s_;
     return hal::FrameRead::kNone;
   }
   hal::FrameRead result = hal::FrameRead::kRejected;

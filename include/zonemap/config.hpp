@@ -52,7 +52,7 @@ struct FeatureConfig {
   double ground_min_coverage = 0.5;
 };
 
-// The onboard runtime (hal/runtime): timing and real-time set-up per stage.
+// The onboard runtime (runtime/): timing and real-time set-up per stage.
 struct RuntimeConfig {
   double frame_period_s = 1.0 / 30.0;  // deadline for frame -> boxes out
   double pose_wait_s = 0.05;           // how long a frame waits for a late pose

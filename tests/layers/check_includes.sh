@@ -2,8 +2,11 @@
 # The layers, as the tree shows them, checked on every project #include:
 #   core      include/zonemap, src        pure computation: includes only the core
 #   HAL       hal/<edge>                  back-ends behind small interfaces: core + HAL,
-#                                         never the runtime or the programs
-#   runtime   hal/runtime                 threads and queues: core + HAL
+#                                         never the runtime or a program
+#   runtime   runtime/                    threads and queues: core + HAL interfaces,
+#                                         never a back-end or a program
+#   onboard   onboard/                    the vehicle program: core, HAL, runtime;
+#                                         never a desk tool
 #   programs  tools/                      anything
 # plus, inside the HAL: an interface or shared folder (frames, ins, output, os, config,
 # codec) never includes a back-end (replay, v4l2, can, lcm, mavlink, ins_log), and the replay back-end
@@ -38,22 +41,24 @@ while IFS= read -r line; do
   case "$file" in
     include/zonemap/*|src/*)
       case "$inc" in zonemap/*|simd_u16.hpp) ;; *) check "$file" "$inc" "the core includes only the core" ;; esac ;;
-    hal/runtime/*)
-      case "$inc" in tools/*) check "$file" "$inc" "the runtime never includes a program" ;; esac
+    runtime/*)
+      case "$inc" in tools/*|onboard/*) check "$file" "$inc" "the runtime never includes a program" ;; esac
       case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
         check "$file" "$inc" "the runtime sees back-ends only through their interfaces" ;; esac ;;
     hal/frames/*|hal/ins/*|hal/output/*|hal/os/*|hal/config/*|hal/codec/*)
-      case "$inc" in tools/*|hal/runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
+      case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
       case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
         check "$file" "$inc" "an interface folder never includes a back-end" ;; esac ;;
     hal/replay/*)
-      case "$inc" in tools/*|hal/runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
+      case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
       case "$inc" in hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
         check "$file" "$inc" "the replay back-end needs no vehicle link" ;; esac ;;
+    onboard/*)
+      case "$inc" in tools/*) check "$file" "$inc" "the onboard program never includes a desk tool" ;; esac ;;
     hal/*)
-      case "$inc" in tools/*|hal/runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac ;;
+      case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac ;;
   esac
-done < <(grep -rn --include='*.hpp' --include='*.cpp' --include='*.h' '^#include "' include src hal |
+done < <(grep -rn --include='*.hpp' --include='*.cpp' --include='*.h' '^#include "' include src hal runtime onboard |
          sed 's/:[0-9]*:/:/')
 
 status=0

@@ -20,6 +20,7 @@
 #include "hal/can/obstacle_can.hpp"
 #include "hal/can/obstacle_can_sink.hpp"
 #include "hal/can/socketcan.hpp"
+#include "hal/os/clock.hpp"
 
 extern char** environ;
 
@@ -88,7 +89,7 @@ TEST(SocketCanVm, FiltersLetOnlyTheProfileIdsThroughWithKernelTimestamps) {
   char error[192];
   ASSERT_TRUE(rx.open("vcan0", decoder.ids(), false, error, sizeof error)) << error;
   ASSERT_TRUE(tx.open("vcan0", {}, false, error, sizeof error)) << error;
-  const double before = realtime_now_s();
+  const double before = os::realtime_now_s();
   for (std::uint32_t id : {0x130u, 0x131u, 0x132u, 0x200u, 0x134u, 0x135u, 0x136u}) {
     CanFrame f;
     f.id = id;
@@ -109,7 +110,7 @@ TEST(SocketCanVm, FiltersLetOnlyTheProfileIdsThroughWithKernelTimestamps) {
     EXPECT_FALSE(got[i].extended);
     EXPECT_EQ(got[i].data[0], static_cast<std::uint8_t>(expected[i]));
     EXPECT_GE(got[i].time_s, before - 1e-3);
-    EXPECT_LE(got[i].time_s, realtime_now_s());
+    EXPECT_LE(got[i].time_s, os::realtime_now_s());
     if (i > 0) {
       EXPECT_GE(got[i].time_s, got[i - 1].time_s);
     }

@@ -13,6 +13,7 @@
 
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/os/allocation_counter.hpp"
+#include "hal/os/clock.hpp"
 #include "hal/output/height_png.hpp"
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
@@ -249,7 +250,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
   std::string why;
   const std::size_t n = std::min(last, sequence_.frame_count());
   const bool show_progress = options_.progress && isatty(STDERR_FILENO);
-  const auto started = std::chrono::steady_clock::now();
+  const auto started = os::Clock::now();
   auto last_progress = started;
   for (std::size_t i = first; i < n; ++i) {
     ++stats_.frames_in;
@@ -283,7 +284,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     view.height = sequence_.camera().height;
 
     FrameReport report;
-    const auto start = std::chrono::steady_clock::now();
+    const auto start = os::Clock::now();
     {
       os::AllocationScope scope;
       features_->set_context(frame.time_s, pose);
@@ -292,8 +293,7 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
       stats_.heap_allocations_after_init += counted.allocations;
       stats_.heap_frees_after_init += counted.frees;
     }
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double ms = os::ms_between(start, os::Clock::now());
     if (report.status != FrameStatus::kMapped) {
       ++stats_.frames_rejected;
       const bool bad_pose = report.status == FrameStatus::kBadPose;
@@ -307,11 +307,11 @@ void ReplayRun::run_frames(std::size_t first, std::size_t last) {
     record_frame(frame, pose);
     if (links_ && stats_.frames_mapped % links_every_frames_ == 0)
       capture_links(frame.time_s, pose);
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = os::Clock::now();
     if (show_progress && (now - last_progress > std::chrono::milliseconds(250) || i + 1 == n)) {
       last_progress = now;
       // Frames done, the rate so far and the time left at that rate.
-      const double elapsed_s = std::chrono::duration<double>(now - started).count();
+      const double elapsed_s = os::seconds_since(started);
       const double rate = elapsed_s > 0.0 ? static_cast<double>(i + 1 - first) / elapsed_s : 0.0;
       const double left_s = rate > 0.0 ? static_cast<double>(n - i - 1) / rate : 0.0;
       std::fprintf(stderr,
@@ -456,7 +456,7 @@ void ReplayRun::close_recording() {
 }
 
 void ReplayRun::extract_live_zones() {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = os::Clock::now();
   {
     os::AllocationScope scope;
     mapper_->zones().for_each_live_zone([this](ZoneView& zone) { features_->extract(zone); });
@@ -464,13 +464,12 @@ void ReplayRun::extract_live_zones() {
     stats_.heap_allocations_after_init += counted.allocations;
     stats_.heap_frees_after_init += counted.frees;
   }
-  extract_ms_.push_back(
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  extract_ms_.push_back(os::ms_between(start, os::Clock::now()));
   if (!in_pipeline_) log_feature_store_events();
 }
 
 void ReplayRun::extract_zone(int pick) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = os::Clock::now();
   {
     os::AllocationScope scope;
     ZoneView zone;
@@ -480,8 +479,7 @@ void ReplayRun::extract_zone(int pick) {
     stats_.heap_allocations_after_init += counted.allocations;
     stats_.heap_frees_after_init += counted.frees;
   }
-  extract_ms_.push_back(
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  extract_ms_.push_back(os::ms_between(start, os::Clock::now()));
 }
 
 void ReplayRun::log_feature_store_events() {

@@ -11,7 +11,7 @@
 #include "hal/output/run_outputs.hpp"
 #include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
-#include "hal/runtime/pipeline.hpp"
+#include "runtime/pipeline.hpp"
 #include "tools/replay/link_capture.hpp"
 #include "zonemap/extraction_schedule.hpp"
 #include "zonemap/height_profile.hpp"

@@ -4,6 +4,7 @@
 #include <sstream>
 #include <thread>
 
+#include "hal/os/clock.hpp"
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/replay/yaml_config.hpp"
 #include "tools/sim/scenarios.hpp"
@@ -11,11 +12,8 @@
 namespace zonemap::soak {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using os::Clock;
+using os::seconds_since;
 
 // The route's frames, rendered once; frame i is loop[i % n] stamped i / rate.
 struct Loop {

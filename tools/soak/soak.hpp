@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "hal/output/obstacle_sink.hpp"
-#include "hal/runtime/pipeline.hpp"
+#include "runtime/pipeline.hpp"
 
 namespace zonemap::soak {
 

@@ -1,10 +1,10 @@
-#include "tools/daemon/vehicle_config.hpp"
+#include "onboard/vehicle_config.hpp"
 
 #include <filesystem>
 
 #include "hal/config/yaml_support.hpp"
 
-namespace zonemap::daemon {
+namespace zonemap::onboard {
 namespace {
 
 using hal::ParseError;
@@ -224,4 +224,4 @@ bool load_vehicle_config_text(const std::string& text, const std::string& name, 
   return hal::load_text(text, name, &root, error) && parse_vehicle_config(root, name, out, error);
 }
 
-}  // namespace zonemap::daemon
+}  // namespace zonemap::onboard

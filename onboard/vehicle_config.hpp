@@ -11,7 +11,7 @@
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "zonemap/ins_gate.hpp"
 
-namespace zonemap::daemon {
+namespace zonemap::onboard {
 
 struct VehicleConfig {
   std::string path;          // this file
@@ -54,4 +54,4 @@ bool load_vehicle_config(const std::string& path, VehicleConfig* config, std::st
 bool load_vehicle_config_text(const std::string& text, const std::string& name,
                               VehicleConfig* config, std::string* error);
 
-}  // namespace zonemap::daemon
+}  // namespace zonemap::onboard

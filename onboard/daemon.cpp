@@ -1,4 +1,4 @@
-#include "tools/daemon/daemon.hpp"
+#include "onboard/daemon.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -17,7 +17,7 @@
 #include "hal/replay/yaml_config.hpp"
 #include "hal/v4l2/v4l2_source.hpp"
 
-namespace zonemap::daemon {
+namespace zonemap::onboard {
 
 VehicleDaemon::~VehicleDaemon() = default;
 
@@ -282,4 +282,4 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   return hal::write_stats_json(config_.output_dir + "/stats.json", s, error);
 }
 
-}  // namespace zonemap::daemon
+}  // namespace zonemap::onboard

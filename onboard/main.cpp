@@ -11,11 +11,11 @@
 #include <string>
 
 #include "hal/os/realtime.hpp"
-#include "tools/daemon/daemon.hpp"
+#include "onboard/daemon.hpp"
 
 namespace {
 
-std::atomic<zonemap::daemon::VehicleDaemon*> g_daemon{nullptr};
+std::atomic<zonemap::onboard::VehicleDaemon*> g_daemon{nullptr};
 
 extern "C" void on_signal(int) {
   // Lock-free atomic stores only: async-signal-safe.
@@ -49,13 +49,13 @@ int main(int argc, char** argv) {
     }
   }
   if (config_path.empty()) return usage();
-  zonemap::daemon::VehicleConfig config;
+  zonemap::onboard::VehicleConfig config;
   std::string error;
-  if (!zonemap::daemon::load_vehicle_config(config_path, &config, &error)) {
+  if (!zonemap::onboard::load_vehicle_config(config_path, &config, &error)) {
     std::fprintf(stderr, "zonemap: %s\n", error.c_str());
     return 1;
   }
-  zonemap::daemon::VehicleDaemon daemon;
+  zonemap::onboard::VehicleDaemon daemon;
   if (!daemon.open(config, &error)) {
     std::fprintf(stderr, "zonemap: %s\n", error.c_str());
     return 1;

@@ -11,8 +11,8 @@
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
-#include "hal/runtime/pipeline.hpp"
-#include "tools/daemon/vehicle_config.hpp"
+#include "onboard/vehicle_config.hpp"
+#include "runtime/pipeline.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"
 
@@ -20,7 +20,7 @@ namespace zonemap::v4l2 {
 class V4l2FrameSource;
 }
 
-namespace zonemap::daemon {
+namespace zonemap::onboard {
 
 class VehicleDaemon : private runtime::MappingHooks {
  public:
@@ -67,4 +67,4 @@ class VehicleDaemon : private runtime::MappingHooks {
   Eigen::Isometry3d last_world_T_camera_ = Eigen::Isometry3d::Identity();
 };
 
-}  // namespace zonemap::daemon
+}  // namespace zonemap::onboard

@@ -8,14 +8,15 @@
 
 #include "hal/can/can_pose_source.hpp"
 #include "hal/can/obstacle_can_sink.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/replay_frame_source.hpp"
-#include "hal/replay/yaml_config.hpp"
 #include "hal/v4l2/v4l2_source.hpp"
+#include "runtime/runtime_config.hpp"
 
 namespace zonemap::onboard {
 
@@ -112,7 +113,8 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   }
   frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
 
-  runtime::PipelineOptions options = runtime::PipelineOptions::from(map_config_.runtime);
+  runtime::PipelineOptions options;
+  if (!runtime::load_pipeline_options(config.mapping_path, &options, error)) return false;
   if (!config.record_path.empty() && !open_recorder(options.footprint_rects, error)) return false;
   options.lossless = !config.live;
   options.health_period_s = config.health_period_s;

@@ -10,23 +10,6 @@
 
 namespace zonemap::runtime {
 
-PipelineOptions PipelineOptions::from(const RuntimeConfig& runtime) {
-  PipelineOptions o;
-  o.frame_period_s = runtime.frame_period_s;
-  o.pose_wait_s = runtime.pose_wait_s;
-  o.publish_every_frames = runtime.publish_every_frames;
-  o.lock_memory = runtime.lock_memory;
-  o.priority_acquisition = runtime.priority_acquisition;
-  o.priority_mapping = runtime.priority_mapping;
-  o.priority_output = runtime.priority_output;
-  o.cpu_acquisition = runtime.cpu_acquisition;
-  o.cpu_mapping = runtime.cpu_mapping;
-  o.cpu_output = runtime.cpu_output;
-  o.priority_extraction = runtime.priority_extraction;
-  o.cpu_extraction = runtime.cpu_extraction;
-  return o;
-}
-
 Pipeline::Impl::Impl(hal::FrameSource& frame_source, const PoseTrack* replay, hal::PoseSource* live,
                      std::span<hal::ObstacleSink* const> sink_list, Mapper& m, FeatureMap& f,
                      MappingHooks& h, const PipelineOptions& o)

@@ -29,10 +29,9 @@
 namespace zonemap::runtime {
 
 struct PipelineOptions {
-  // From the configuration's `pipeline:` section (RuntimeConfig); the command line
-  // may then change lossless / source_rate_hz / lock_memory.
-  static PipelineOptions from(const RuntimeConfig& runtime);
-
+  // The configuration's `pipeline:` section sets the timing and real-time fields
+  // (runtime_config.hpp); the command line may then change lossless /
+  // source_rate_hz / lock_memory, the program the rest.
   // Lossless: the source waits for a free frame slot, every frame is mapped (replay,
   // determinism). Otherwise newest wins: a mapper that falls behind skips to the
   // newest waiting frame; the skipped ones are dropped and counted.

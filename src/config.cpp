@@ -66,19 +66,6 @@ std::string validate(const MapConfig& c) {
   } else if (!(c.features.ground_thickness_m >= 0.0) || !(c.features.ground_window_m >= 0.0) ||
              !(c.features.ground_min_coverage >= 0.0) || c.features.ground_min_coverage > 1.0) {
     why << "ground.thickness_m and ground.window_m must be >= 0, ground.min_coverage in [0, 1]";
-  } else if (!(c.runtime.frame_period_s > 0.0) || !(c.runtime.pose_wait_s >= 0.0) ||
-             c.runtime.pose_wait_s > 1.0 || c.runtime.publish_every_frames < 1) {
-    why << "pipeline.frame_period_s > 0, pipeline.pose_wait_s in [0, 1], "
-           "pipeline.publish_every_frames >= 1";
-  } else if (c.runtime.priority_acquisition < 0 || c.runtime.priority_acquisition > 99 ||
-             c.runtime.priority_mapping < 0 || c.runtime.priority_mapping > 99 ||
-             c.runtime.priority_output < 0 || c.runtime.priority_output > 99 ||
-             c.runtime.priority_extraction < 0 || c.runtime.priority_extraction > 99 ||
-             c.runtime.cpu_extraction < -1 || c.runtime.cpu_extraction > 1023 ||
-             c.runtime.cpu_acquisition < -1 || c.runtime.cpu_mapping < -1 ||
-             c.runtime.cpu_output < -1 || c.runtime.cpu_acquisition > 1023 ||
-             c.runtime.cpu_mapping > 1023 || c.runtime.cpu_output > 1023) {
-    why << "pipeline priorities must be in [0, 99] and cpus in [-1, 1023]";
   }
   return why.str();
 }

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "hal/replay/sequence.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 #include "zonemap/feature_map.hpp"

@@ -10,7 +10,7 @@
 
 #include "hal/codec/png_io.hpp"
 #include "hal/replay/sequence.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"

@@ -12,7 +12,7 @@
 #include "hal/can/obstacle_can_sink.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/replay/replay_frame_source.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "pipeline_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"

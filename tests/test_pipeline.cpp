@@ -19,7 +19,7 @@
 #include <thread>
 
 #include "hal/os/doorbell.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "replay_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"

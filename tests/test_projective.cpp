@@ -9,7 +9,7 @@
 
 #include "hal/os/allocation_counter.hpp"
 #include "hal/replay/sequence.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "test_support.hpp"
 #include "zonemap/mapper.hpp"
 

@@ -11,7 +11,7 @@
 
 #include "hal/codec/png_io.hpp"
 #include "hal/output/run_outputs.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"

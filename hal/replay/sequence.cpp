@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "hal/codec/png_io.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 
 namespace zonemap::hal {
 namespace {

@@ -52,18 +52,6 @@ struct FeatureConfig {
   double ground_min_coverage = 0.5;
 };
 
-// The onboard runtime (runtime/): timing and real-time set-up per stage.
-struct RuntimeConfig {
-  double frame_period_s = 1.0 / 30.0;  // deadline for frame -> boxes out
-  double pose_wait_s = 0.05;           // how long a frame waits for a late pose
-  int publish_every_frames = 3;        // merged boxes to the output stage
-  bool lock_memory = false;            // mlockall at start-up
-  // SCHED_FIFO priority (1..99, 0 = normal scheduling) and CPU (-1 = any) per stage.
-  int priority_acquisition = 0, priority_mapping = 0, priority_output = 0;
-  int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;
-  int priority_extraction = 0, cpu_extraction = -1;  // the feature-extraction thread
-};
-
 struct MapConfig {
   double cell_size_m = 1.0;
   std::array<int, 3> zone_cells = {80, 80, 10};  // zone = sensor environment size
@@ -102,7 +90,8 @@ struct MapConfig {
   // only its item; a step that persists over confirm_values stamps is adopted.
   TimeWatermarkConfig timestamps;
   FeatureConfig features;
-  RuntimeConfig runtime;
+  // The file's `pipeline:` section (timing, real-time set-up) is the runtime's:
+  // runtime/runtime_config reads it into runtime::PipelineOptions.
 };
 
 // Returns an empty string when the configuration is usable, else what is wrong.

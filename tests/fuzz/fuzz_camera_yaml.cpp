@@ -1,6 +1,6 @@
 // camera.yaml: strict loader, every error a message, never a crash or an exception
 // out; from memory through the same parser the file loader uses.
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   zonemap::CameraModel camera;

@@ -177,7 +177,7 @@ int main(int argc, char** argv) {
   }
   run.set_stereo_figures(stereo_figures);
   if (pipelined) {
-    auto options_from_config = zonemap::runtime::PipelineOptions::from(run.config().runtime);
+    auto options_from_config = run.pipeline_options();
     options_from_config.lossless = pipeline.lossless;
     options_from_config.source_rate_hz = pipeline.source_rate_hz;
     options_from_config.lock_memory = options_from_config.lock_memory || pipeline.lock_memory;

@@ -11,12 +11,13 @@
 #include <iterator>
 #include <span>
 
+#include "hal/config/yaml_config.hpp"
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/clock.hpp"
 #include "hal/output/height_png.hpp"
 #include "hal/replay/replay_frame_source.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "runtime/runtime_config.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/report/report.hpp"
 
@@ -83,6 +84,7 @@ void ReplayRun::log_rejection(const char* kind, std::int64_t count,
 bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   options_ = options;
   if (!hal::load_map_config(options.config_path, &config_, error)) return false;
+  if (!runtime::load_pipeline_options(options.config_path, &pipeline_options_, error)) return false;
   const ins_log::SequenceInsLogs ins_logs;
   if (!sequence_.open(options.sequence_dir, options.camera_path, config_, error, &ins_logs)) {
     return false;
@@ -217,7 +219,7 @@ bool ReplayRun::open_links(std::string* error) {
   SectorConfig sectors;
   sectors.max_distance_m = std::min(sectors.max_distance_m, config_.d_max_m);
   links_update_.reserve(features_->capacity(), kRecordedRects);
-  links_every_frames_ = runtime::PipelineOptions::from(config_.runtime).publish_every_frames;
+  links_every_frames_ = pipeline_options_.publish_every_frames;
   links_ = std::make_unique<LinkCapture>();
   return links_->open(options_.links_dir, sequence_.camera(), sectors, features_->capacity(),
                       error);

@@ -64,6 +64,8 @@ class ReplayRun : private runtime::MappingHooks {
   Mapper& mapper() { return *mapper_; }
   const hal::ReplaySequence& sequence() const { return sequence_; }
   const MapConfig& config() const { return config_; }
+  // The configuration's `pipeline:` section, for run_pipelined().
+  const runtime::PipelineOptions& pipeline_options() const { return pipeline_options_; }
   const HeightProfile& height_profile() const { return *height_; }
   FeatureMap& features() { return *features_; }
   // The merged boxes of boxes.csv (obstacles, then ground when asked).
@@ -99,6 +101,7 @@ class ReplayRun : private runtime::MappingHooks {
 
   ReplayOptions options_;
   MapConfig config_;
+  runtime::PipelineOptions pipeline_options_;
   hal::ReplaySequence sequence_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<HeightProfile> height_;

@@ -4,9 +4,10 @@
 #include <sstream>
 #include <thread>
 
+#include "hal/config/yaml_config.hpp"
 #include "hal/os/clock.hpp"
 #include "hal/replay/replay_frame_source.hpp"
-#include "hal/replay/yaml_config.hpp"
+#include "runtime/runtime_config.hpp"
 #include "tools/sim/scenarios.hpp"
 
 namespace zonemap::soak {
@@ -136,8 +137,10 @@ bool run_soak(const SoakOptions& options, SoakResult* result, std::string* error
   so.frame_rate_hz = options.rate_hz > 0.0 ? options.rate_hz : 30.0;
   if (!sim::make_scenario("out-and-back", so, &scenario, error)) return false;
   MapConfig config;
-  if (!hal::load_map_config(std::string(ZONEMAP_SOURCE_DIR) + "/" + scenario.config, &config,
-                            error)) {
+  const std::string config_path = std::string(ZONEMAP_SOURCE_DIR) + "/" + scenario.config;
+  runtime::PipelineOptions pipeline_options;
+  if (!hal::load_map_config(config_path, &config, error) ||
+      !runtime::load_pipeline_options(config_path, &pipeline_options, error)) {
     return false;
   }
   config.pixel_step = options.pixel_step;
@@ -173,11 +176,11 @@ bool run_soak(const SoakOptions& options, SoakResult* result, std::string* error
   const auto start = Clock::now();
   LoopCamera camera(loop, options, start);
   LoopIns ins(loop, camera, camera);
-  runtime::PipelineOptions p = runtime::PipelineOptions::from(config.runtime);
-  p.lossless = options.rate_hz <= 0.0;
-  p.health_period_s = options.health_period_s;
-  p.publish_every_frames = 3;
-  runtime::Pipeline pipeline(camera, nullptr, &ins, sinks, mapper, features, hooks, p);
+  pipeline_options.lossless = options.rate_hz <= 0.0;
+  pipeline_options.health_period_s = options.health_period_s;
+  pipeline_options.publish_every_frames = 3;
+  runtime::Pipeline pipeline(camera, nullptr, &ins, sinks, mapper, features, hooks,
+                             pipeline_options);
   ins.set_frames_offered(&pipeline);
   result->static_memory_bytes =
       mapper.reserved_bytes() + features.reserved_bytes() + pipeline.reserved_bytes();

@@ -1,4 +1,5 @@
-// Loading of the mapping configuration (config/*.yaml) and of camera.yaml
+// Loading of the mapping configuration (config/*.yaml; its `pipeline:` section is the
+// runtime's, runtime/runtime_config) and of camera.yaml
 // (FORMATS.md §1). Strict: an unknown key, a wrong type or an out-of-range value
 // is an error that names the file and line.
 #pragma once

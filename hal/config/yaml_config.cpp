@@ -1,4 +1,4 @@
-#include "hal/replay/yaml_config.hpp"
+#include "hal/config/yaml_config.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -71,19 +71,7 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                {"merge_gap_cells", into(&c.features.merge_gap_cells)},
                                {"split_touching", into(&c.features.split_touching)},
                                {"core_min_cells", into(&c.features.core_min_cells)}})},
-         {"pipeline",
-          section("pipeline", {{"frame_period_s", into(&c.runtime.frame_period_s)},
-                               {"pose_wait_s", into(&c.runtime.pose_wait_s)},
-                               {"publish_every_frames", into(&c.runtime.publish_every_frames)},
-                               {"lock_memory", into(&c.runtime.lock_memory)},
-                               {"priority_acquisition", into(&c.runtime.priority_acquisition)},
-                               {"priority_mapping", into(&c.runtime.priority_mapping)},
-                               {"priority_output", into(&c.runtime.priority_output)},
-                               {"cpu_acquisition", into(&c.runtime.cpu_acquisition)},
-                               {"cpu_mapping", into(&c.runtime.cpu_mapping)},
-                               {"cpu_output", into(&c.runtime.cpu_output)},
-                               {"priority_extraction", into(&c.runtime.priority_extraction)},
-                               {"cpu_extraction", into(&c.runtime.cpu_extraction)}})},
+         {"pipeline", [](const YAML::Node&) {}},  // the runtime's: runtime/runtime_config
          {"ground", section("ground", {{"enabled", into(&c.features.ground_enabled)},
                                        {"thickness_m", into(&c.features.ground_thickness_m)},
                                        {"window_m", into(&c.features.ground_window_m)},

@@ -33,7 +33,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
       return false;
     }
     camera_ = sequence_.camera();
-    frames_ = std::make_unique<hal::ReplayFrameSource>(sequence_, config.replay_rate_hz);
+    frames_ = std::make_unique<replay::ReplayFrameSource>(sequence_, config.replay_rate_hz);
   } else {
     if (!hal::load_camera_yaml(config.camera_path, &camera_, error)) return false;
     if (map_config_.depth_scale_override > 0.0)

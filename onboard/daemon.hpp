@@ -47,7 +47,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   VehicleConfig config_;
   MapConfig map_config_;
   CameraModel camera_;
-  hal::ReplaySequence sequence_;
+  replay::ReplaySequence sequence_;
   std::unique_ptr<hal::FrameSource> frames_;
   const v4l2::V4l2FrameSource* v4l2_ = nullptr;  // when frames_ is the camera
   std::unique_ptr<hal::PoseSource> live_poses_;

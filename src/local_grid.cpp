@@ -10,10 +10,6 @@ namespace {
 
 constexpr int kMaxBlurRadius = 2;
 
-LocalCell quantize(float units) {
-  return static_cast<LocalCell>(std::clamp(to_fixed(units), -kCellScale, kCellScale));
-}
-
 // Divides by 2^shift, rounding half away from zero, so that blur(-x) == -blur(x).
 int symmetric_shift(int value, int shift) {
   const int half = 1 << (shift - 1);
@@ -170,7 +166,7 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
     if (t_next[1] < t_next[axis]) axis = 1;
     if (t_next[2] < t_next[axis]) axis = 2;
     const float t_exit = std::min(std::max(t_next[axis], t), t1);
-    write_max(cell[0], cell[1], cell[2], quantize(max_value_in_interval(ray, t, t_exit)));
+    write_max(cell[0], cell[1], cell[2], to_local_cell(max_value_in_interval(ray, t, t_exit)));
     ++visited;
     if (t_exit >= t1) break;
     t = t_exit;

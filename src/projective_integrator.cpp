@@ -36,10 +36,6 @@ struct RayLanes {
   Lanes d_min, d_max, code_to_m, resolution_factor;
 };
 
-LocalCell quantize(float units) {
-  return static_cast<LocalCell>(std::clamp(to_fixed(units), -kCellScale, kCellScale));
-}
-
 // The camera's frustum (image borders, d_min, d_max) as six world-frame
 // half-spaces n . p >= c, widened so that a cube of side `side` whose centre is
 // outside cannot reach into it.
@@ -943,7 +939,7 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
         (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
     if (!crossed(centre_reaches)) return;
   }
-  if (value >= -1.0f) grid.write_max(x, y, z, quantize(value));
+  if (value >= -1.0f) grid.write_max(x, y, z, to_local_cell(value));
 }
 
 }  // namespace zonemap

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "hal/replay/sequence.hpp"
 #include "hal/config/yaml_config.hpp"
+#include "hal/replay/sequence.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 #include "zonemap/feature_map.hpp"
@@ -30,7 +30,7 @@ struct RecordingHooks : runtime::MappingHooks {
 struct Flight {
   TempDir dir;
   MapConfig config;
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   std::unique_ptr<Mapper> mapper;
   std::unique_ptr<FeatureMap> features;
   RecordingHooks hooks;

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "hal/codec/png_io.hpp"
-#include "hal/replay/sequence.hpp"
 #include "hal/config/yaml_config.hpp"
+#include "hal/replay/sequence.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -186,7 +186,8 @@ TEST(BadTrajectory, NanNonUnitAndBackwardsPosesAreRejectedAndCounted) {
   int rejected = 0;
   std::vector<std::string> warnings;
   std::string error;
-  ASSERT_TRUE(hal::load_trajectory(dir / "gt.txt", &track, &rejected, &warnings, &error)) << error;
+  ASSERT_TRUE(replay::load_trajectory(dir / "gt.txt", &track, &rejected, &warnings, &error))
+      << error;
   EXPECT_EQ(track.size(), 3u);
   EXPECT_EQ(rejected, 3);
   ASSERT_EQ(warnings.size(), 3u);
@@ -198,10 +199,10 @@ TEST(BadTrajectory, NanNonUnitAndBackwardsPosesAreRejectedAndCounted) {
       << warnings[2];
 
   write_text(dir / "bad.txt", "0.0 0 0 0 0 0 1\n");  // seven fields
-  EXPECT_FALSE(hal::load_trajectory(dir / "bad.txt", &track, &rejected, &warnings, &error));
+  EXPECT_FALSE(replay::load_trajectory(dir / "bad.txt", &track, &rejected, &warnings, &error));
   EXPECT_NE(error.find("bad.txt:1:"), std::string::npos) << error;
   write_text(dir / "bad.txt", "0.0 0 0 zero 0 0 0 1\n");
-  EXPECT_FALSE(hal::load_trajectory(dir / "bad.txt", &track, &rejected, &warnings, &error));
+  EXPECT_FALSE(replay::load_trajectory(dir / "bad.txt", &track, &rejected, &warnings, &error));
   EXPECT_NE(error.find("'zero' is not a number"), std::string::npos) << error;
 }
 

@@ -39,7 +39,7 @@ std::string slurp(const std::string& path) {
 
 // The sequence's camera poses as an INS would log them: the body's pose, the
 // camera on the sequence's mount (camera.yaml names none: looking along the nose).
-void write_ins_log(const hal::ReplaySequence& sequence, const std::string& path) {
+void write_ins_log(const replay::ReplaySequence& sequence, const std::string& path) {
   lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
   ASSERT_NE(log, nullptr);
   const Eigen::Isometry3d camera_T_body = sequence.camera().body_T_camera.inverse();
@@ -131,7 +131,7 @@ void make_flight(Flight* f, double rate_hz, std::size_t frames) {
   f->config =
       zonemap::testing::write_test_scenario("posts-through", f->sequence, rate_hz, 4, frames);
   ASSERT_FALSE(f->config.empty());
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   MapConfig map;
   std::string error;
   ASSERT_TRUE(sequence.open(f->sequence, "", map, &error)) << error;
@@ -286,7 +286,7 @@ TEST(ReplaySequence, PosesFromInsLcmlogWhenThereIsNoGroundTruthMapTheSame) {
   }
   // Neither: a clear error.
   std::filesystem::remove(f.sequence + "/ins.lcmlog");
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   std::string error;
   const ins_log::SequenceInsLogs ins_logs;
   EXPECT_FALSE(sequence.open(f.sequence, "", MapConfig{}, &error, &ins_logs));

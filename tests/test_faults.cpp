@@ -10,9 +10,9 @@
 #include <thread>
 
 #include "hal/can/obstacle_can_sink.hpp"
+#include "hal/config/yaml_config.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/replay/replay_frame_source.hpp"
-#include "hal/config/yaml_config.hpp"
 #include "pipeline_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
@@ -60,7 +60,7 @@ class ScriptedIns final : public hal::PoseSource {
 // Frames from the sequence, with faults: stalls, bursts, corruption.
 class ScriptedCamera final : public hal::FrameSource {
  public:
-  ScriptedCamera(const hal::ReplaySequence& sequence,
+  ScriptedCamera(const replay::ReplaySequence& sequence,
                  std::function<hal::FrameRead(std::size_t, hal::CameraFrame*, std::string*)> fault)
       : inner_(sequence, 0.0), fault_(std::move(fault)), camera_(sequence.camera()) {}
   const CameraModel& camera() const override { return camera_; }
@@ -73,7 +73,7 @@ class ScriptedCamera final : public hal::FrameSource {
   }
 
  private:
-  hal::ReplayFrameSource inner_;
+  replay::ReplayFrameSource inner_;
   std::function<hal::FrameRead(std::size_t, hal::CameraFrame*, std::string*)> fault_;
   CameraModel camera_;
 };
@@ -86,7 +86,7 @@ TEST(Faults, InsSilentForTwoSecondsSkipsThoseFramesAndResumes) {
   ScriptedIns ins(f.sequence.poses().samples(), [&](InsSolution* s) {
     return !(s->time_s > t0 && s->time_s < t0 + 2.0);  // silent in (t0, t0 + 2 s)
   });
-  hal::ReplayFrameSource camera(f.sequence, 0.0);
+  replay::ReplayFrameSource camera(f.sequence, 0.0);
   const runtime::PipelineStats s = f.run(camera, &ins, {});
   // 4 Hz: the 7 frames strictly inside the silence have no pose; none is mapped.
   EXPECT_EQ(s.frames_skipped_no_pose, 7);
@@ -102,7 +102,7 @@ TEST(Faults, InsSilentForTwoSecondsSkipsThoseFramesAndResumes) {
 TEST(Faults, PoseJumpAndTimeGoingBackwardsAreRefusedAndTheMapIsUnchanged) {
   Flight clean(32);
   ScriptedIns truth(clean.sequence.poses().samples(), [](InsSolution*) { return true; });
-  hal::ReplayFrameSource camera_a(clean.sequence, 0.0);
+  replay::ReplayFrameSource camera_a(clean.sequence, 0.0);
   clean.run(camera_a, &truth, {});
   const std::vector<ObstacleBox> expected = clean.boxes();
 
@@ -114,7 +114,7 @@ TEST(Faults, PoseJumpAndTimeGoingBackwardsAreRefusedAndTheMapIsUnchanged) {
     if (n == 20) s->time_s -= 0.6;            // a stamp from the past
     return true;
   });
-  hal::ReplayFrameSource camera_b(faulty.sequence, 0.0);
+  replay::ReplayFrameSource camera_b(faulty.sequence, 0.0);
   const runtime::PipelineStats s = faulty.run(camera_b, &ins, {});
   const InsGateCounters gate = ins.counters().gate;
   EXPECT_EQ(gate.rejected[static_cast<int>(InsRejection::kJump)], 1);
@@ -191,7 +191,7 @@ TEST(Faults, CanQueueFullAndLcmProviderDownAreCountedMappingUnaffected) {
   lcm_config.rate_hz = 1e6;
   lcm_link::LcmObstacleSink lcm_out(lcm_config);
   hal::ObstacleSink* sinks[] = {&can_out, &lcm_out};
-  hal::ReplayFrameSource camera(f.sequence, 0.0);
+  replay::ReplayFrameSource camera(f.sequence, 0.0);
   const runtime::PipelineStats s = f.run(camera, nullptr, sinks);
   EXPECT_EQ(s.frames_mapped, 32);
   EXPECT_EQ(s.outputs_published + s.outputs_skipped, 32);  // skipped: output thread still busy

@@ -114,7 +114,7 @@ Consistency held_out_consistency(const std::string& sequence, const std::string&
   tools::ReplayRun all;  // the whole sequence, only to read the held-out frames
   options.sequence_dir = sequence;
   EXPECT_TRUE(all.open(options, &error)) << error;
-  const hal::ReplaySequence& seq = all.sequence();
+  const replay::ReplaySequence& seq = all.sequence();
   const CameraModel& cam = seq.camera();
   const MapConfig& map = run.config();
   Mapper& mapper = run.mapper();

@@ -22,6 +22,17 @@ RayProfile hit_ray(float d_min, float depth, float resolution) {
   return ray;
 }
 
+TEST(LocalGrid, CellValuesAreQ6ClampedToOne) {
+  static_assert(to_local_cell(1.0f) == kCellScale);
+  EXPECT_EQ(to_local_cell(0.5f), 32);
+  EXPECT_EQ(to_local_cell(-0.5f), -32);  // rounds half away from zero, symmetric
+  EXPECT_EQ(to_local_cell(1.0f / 128.0f), 1);
+  EXPECT_EQ(to_local_cell(-1.0f / 128.0f), -1);
+  EXPECT_EQ(to_local_cell(3.0f), kCellScale);
+  EXPECT_EQ(to_local_cell(-3.0f), -kCellScale);
+  EXPECT_NE(to_local_cell(-1.0f), kUntouched);  // free is never "untouched"
+}
+
 TEST(LocalGrid, SingleRayFreeThenPeakThenUnknown) {
   LocalGrid grid({40, 5, 5});
   grid.reset(CellIndex{});

@@ -340,7 +340,7 @@ struct InsEvent {
 // The flight's body poses (camera on the default mount) as an INS logs them, at
 // four times the frame rate (interpolated), so that one refused solution costs no
 // frame: the mapper interpolates across it.
-std::vector<InsEvent> ins_events(const hal::ReplaySequence& sequence) {
+std::vector<InsEvent> ins_events(const replay::ReplaySequence& sequence) {
   const Eigen::Isometry3d camera_T_body = sequence.camera().body_T_camera.inverse();
   const auto& samples = sequence.poses().samples();
   std::vector<InsEvent> events;
@@ -450,7 +450,7 @@ TEST_P(OneBadInsMessage, IsRefusedAloneAndTheFlightMapsAsTheCleanOne) {
   const std::string config =
       testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, kFrames);
   ASSERT_FALSE(config.empty());
-  hal::ReplaySequence truth;
+  replay::ReplaySequence truth;
   std::string error;
   MapConfig interpolate_between_frames;
   interpolate_between_frames.pose_max_gap_s = 1.0;
@@ -568,7 +568,7 @@ TEST_P(OneBadCanFrame, CostsAtMostItsSolutionAndTheFlightMapsAsTheCleanOne) {
   const std::string config =
       testing::write_test_scenario("posts-through", clean_seq, 4.0, 4, kFrames);
   ASSERT_FALSE(config.empty());
-  hal::ReplaySequence truth;
+  replay::ReplaySequence truth;
   std::string error;
   MapConfig interpolate_between_frames;
   interpolate_between_frames.pose_max_gap_s = 1.0;

@@ -18,8 +18,8 @@
 #include <fstream>
 #include <thread>
 
-#include "hal/os/doorbell.hpp"
 #include "hal/config/yaml_config.hpp"
+#include "hal/os/doorbell.hpp"
 #include "replay_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
@@ -375,7 +375,7 @@ TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
   const std::string config_path = test_sequence(dir, "posts-through", 4.0, 60);
   MapConfig config;
   std::string error;
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
   ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
   Mapper mapper(config, sequence.camera());
@@ -385,7 +385,7 @@ TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
   hooks.total = static_cast<std::int64_t>(sequence.frame_count());
   runtime::PipelineOptions options;
   options.lossless = false;  // newest wins
-  hal::ReplayFrameSource frames(sequence, options.source_rate_hz);
+  replay::ReplayFrameSource frames(sequence, options.source_rate_hz);
   runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, mapper, features, hooks,
                              options);
   hooks.pipeline = &pipeline;
@@ -452,7 +452,7 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   const std::string config_path = test_sequence(dir, "posts-through", 4.0, 40);
   MapConfig config;
   std::string error;
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
   ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
   Mapper mapper(config, sequence.camera());
@@ -461,7 +461,7 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   struct NoHooks : runtime::MappingHooks {  // extraction: the pipeline's own thread
     void after_frame(std::size_t, const Eigen::Isometry3d&, const FrameReport&, double) override {}
   } hooks;
-  hal::ReplayFrameSource frames(sequence, 0.0);
+  replay::ReplayFrameSource frames(sequence, 0.0);
   ListPoseSource ins(sequence.poses().samples());
   RecordingSink recording;
   // Real sinks too: MAVLink to a loopback socket of ours (a port nobody reads answers

@@ -7,9 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "hal/config/yaml_config.hpp"
 #include "hal/os/allocation_counter.hpp"
 #include "hal/replay/sequence.hpp"
-#include "hal/config/yaml_config.hpp"
 #include "test_support.hpp"
 #include "zonemap/mapper.hpp"
 
@@ -269,7 +269,7 @@ TEST(Projective, AgreesWithReferenceOnRealFrames) {
   std::string error;
   ASSERT_TRUE(
       hal::load_map_config(testing::source_path("config/indoor-kinect.yaml"), &config, &error));
-  hal::ReplaySequence sequence;
+  replay::ReplaySequence sequence;
   ASSERT_TRUE(sequence.open(dir, "", config, &error)) << error;
   hal::CameraFrame frame = sequence.make_frame();
   Agreement total;

@@ -10,8 +10,8 @@
 #include <memory>
 
 #include "hal/codec/png_io.hpp"
-#include "hal/output/run_outputs.hpp"
 #include "hal/config/yaml_config.hpp"
+#include "hal/output/run_outputs.hpp"
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
@@ -233,7 +233,7 @@ TEST(ReplayTumLayout, MapsLikeTheSameFlightInMillimetres) {
   const std::string tum = dir / "tum";
   std::filesystem::create_directories(tum + "/depth");
   const double epoch = 1305031102.0;
-  hal::ReplaySequence source;
+  replay::ReplaySequence source;
   MapConfig map_config;
   std::string error;
   ASSERT_TRUE(hal::load_map_config(config, &map_config, &error)) << error;

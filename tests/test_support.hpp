@@ -11,9 +11,22 @@
 #include <string>
 
 #include "tools/sim/scenarios.hpp"
+#include "zonemap/config.hpp"
 #include "zonemap/ins_gate.hpp"
 
 namespace zonemap::testing {
+
+// A small map in the paper's geometry (environment centred on the camera, as the
+// zone and mapper tests draw it): 1 m cells, 10 x 10 x 4 zones, d 1..8 m.
+inline MapConfig small_centred_config() {
+  MapConfig config;
+  config.cell_size_m = 1.0;
+  config.zone_cells = {10, 10, 4};
+  config.d_min_m = 1.0;
+  config.d_max_m = 8.0;
+  config.placement = MapConfig::Placement::kCentred;
+  return config;
+}
 
 class TempDir {
  public:

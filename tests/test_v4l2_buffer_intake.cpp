@@ -24,7 +24,7 @@ constexpr std::uint32_t kRowPadding = 64;  // drivers may pad rows (bytesperline
 class DriverBufferCamera final : public hal::FrameSource {
  public:
   using Fault = std::function<void(std::size_t index, v4l2::DequeuedBuffer*)>;
-  DriverBufferCamera(const hal::ReplaySequence& sequence, Fault fault)
+  DriverBufferCamera(const replay::ReplaySequence& sequence, Fault fault)
       : replay_(sequence, 0.0),
         camera_(sequence.camera()),
         decoded_(replay_.make_frame()),
@@ -63,7 +63,7 @@ class DriverBufferCamera final : public hal::FrameSource {
     return b;
   }
 
-  hal::ReplayFrameSource replay_;
+  replay::ReplayFrameSource replay_;
   CameraModel camera_;
   hal::CameraFrame decoded_;
   Fault fault_;

@@ -7,13 +7,14 @@
 #include <tuple>
 #include <vector>
 
-#include "hal/os/allocation_counter.hpp"
-#include "tools/sim/scene.hpp"
-#include "zonemap/mapper.hpp"
-#include "zonemap/zone_snapshot.hpp"
+#include "test_support.hpp"
+#include "zonemap/local_grid.hpp"
+#include "zonemap/zone_map.hpp"
 
 namespace zonemap {
 namespace {
+
+using testing::small_centred_config;
 
 struct RecordingObserver : ZoneObserver {
   std::vector<ZoneKey> allocated;
@@ -22,25 +23,14 @@ struct RecordingObserver : ZoneObserver {
   void on_zone_discarding(const ZoneView& zone) override { discarded.push_back(zone.key); }
 };
 
-MapConfig small_config() {
-  MapConfig config;
-  config.cell_size_m = 1.0;
-  config.zone_cells = {10, 10, 4};
-  config.d_min_m = 1.0;
-  config.d_max_m = 8.0;
-  config.placement =
-      MapConfig::Placement::kCentred;  // the paper's geometry, as these tests draw it
-  return config;
-}
-
 TEST(ZoneMap, EnvironmentIsCentredOnTheCameraCell) {
-  ZoneMap zones(small_config());
+  ZoneMap zones(small_centred_config());
   const CellIndex origin = zones.environment_origin({23, -7, 1});
   EXPECT_EQ(origin, (CellIndex{18, -12, -1}));
 }
 
 TEST(ZoneMap, EnvironmentBelowTheCameraReachesDown) {
-  MapConfig config = small_config();
+  MapConfig config = small_centred_config();
   config.placement = MapConfig::Placement::kBelow;
   config.zone_cells = {10, 10, 20};
   config.above_camera_m = 2.0;  // two cells above the camera's cell
@@ -54,14 +44,14 @@ TEST(ZoneMap, EnvironmentBelowTheCameraReachesDown) {
 }
 
 TEST(ZoneMap, KeysUseFloorDivisionForNegativeCells) {
-  ZoneMap zones(small_config());
+  ZoneMap zones(small_centred_config());
   EXPECT_EQ(zones.key_of({-1, 0, 0}), (ZoneKey{-1, 0, 0}));
   EXPECT_EQ(zones.key_of({-10, 9, -4}), (ZoneKey{-1, 0, -1}));
   EXPECT_EQ(zones.key_of({-11, 10, 3}), (ZoneKey{-2, 1, 0}));
 }
 
 TEST(ZoneMap, StraightFlightAcrossBoundariesAllocatesAndDiscards) {
-  ZoneMap zones(small_config());
+  ZoneMap zones(small_centred_config());
   RecordingObserver observer;
   zones.add_observer(&observer);
   std::set<const FusedCell*> buffers;
@@ -98,7 +88,7 @@ TEST(ZoneMap, StraightFlightAcrossBoundariesAllocatesAndDiscards) {
 }
 
 TEST(ZoneMap, DiagonalMoveHoldsEightZonesAtMost) {
-  ZoneMap zones(small_config());
+  ZoneMap zones(small_centred_config());
   int max_live = 0;
   for (int s = 0; s < 60; ++s) {
     zones.move_environment(zones.environment_origin({s, s, s / 3}));
@@ -109,8 +99,8 @@ TEST(ZoneMap, DiagonalMoveHoldsEightZonesAtMost) {
 }
 
 TEST(ZoneMap, ReturningZoneStartsUnknown) {
-  ZoneMap zones(small_config());
-  LocalGrid local(small_config().zone_cells);
+  ZoneMap zones(small_centred_config());
+  LocalGrid local(small_centred_config().zone_cells);
   CellIndex origin = zones.environment_origin({5, 5, 2});
   zones.move_environment(origin);
   local.reset(origin);
@@ -126,315 +116,6 @@ TEST(ZoneMap, ReturningZoneStartsUnknown) {
   zones.move_environment(zones.environment_origin({5, 5, 2}));
   ASSERT_TRUE(zones.value_at({5, 5, 2}, &v));
   EXPECT_EQ(v, 0) << "a re-allocated zone starts unknown (features re-integrate later)";
-}
-
-TEST(Mapper, NoHeapAllocationAfterInit) {
-  MapConfig config = small_config();
-  config.zone_cells = {40, 40, 16};
-  config.cell_size_m = 0.5;
-  config.d_min_m = 1.0;
-  config.d_max_m = 15.0;
-  CameraModel camera;
-  camera.width = 64;
-  camera.height = 48;
-  camera.fx = camera.fy = 60.0;
-  camera.cx = 31.5;
-  camera.cy = 23.5;
-  camera.baseline_m = 0.3;
-  camera.match_sigma_px = 0.25;
-  camera.depth_scale = 1000.0;
-  sim::Scene scene;
-  scene.boxes.push_back({"box", {6, -2, 0}, {8, 2, 3}});
-  std::vector<std::uint16_t> depth(64 * 48);
-  std::vector<std::uint8_t> left(64 * 48);
-  sim::Rng rng(7);
-
-  Mapper mapper(config, camera);  // all memory reserved here
-  DepthFrameView view{depth.data(), left.data(), camera.width, camera.height};
-  std::int64_t allocated_zones_before = 0;
-  os::AllocationCounts total;
-  for (int frame = 0; frame < 40; ++frame) {
-    // Fly 1 m per frame so that zone boundaries are crossed several times.
-    const Eigen::Isometry3d pose = sim::look_pose({frame * 1.0 - 20.0, 0.3 * frame, 2.0}, 0.0, 0.2);
-    sim::render(scene, camera, pose, sim::RenderOptions{}, rng, depth.data(), left.data());
-    os::AllocationScope scope;
-    const FrameReport report = mapper.integrate(view, pose);
-    const os::AllocationCounts c = scope.counted();
-    total.allocations += c.allocations;
-    total.frees += c.frees;
-    ASSERT_EQ(report.status, FrameStatus::kMapped);
-    if (frame == 0) allocated_zones_before = mapper.zones().zones_allocated();
-  }
-  EXPECT_GT(mapper.zones().zones_allocated(), allocated_zones_before) << "boundaries were crossed";
-  EXPECT_EQ(total.allocations, 0);
-  EXPECT_EQ(total.frees, 0);
-}
-
-TEST(Mapper, CountingReallyCountsAllocations) {
-  // Guards the proof above: allocations in a counted scope are seen, C++ and C.
-  os::AllocationScope scope;
-  auto* p = new std::vector<int>(100);
-  delete p;
-  EXPECT_GE(scope.counted().allocations, 2);
-  EXPECT_GE(scope.counted().frees, 2);
-  [[maybe_unused]] const os::AllocationCounts before = scope.counted();
-  void* volatile c = std::malloc(64);
-  std::free(c);
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
-  EXPECT_EQ(scope.counted().allocations, before.allocations + 1) << "malloc is counted";
-  EXPECT_EQ(scope.counted().frees, before.frees + 1);
-#endif
-}
-
-TEST(Mapper, RejectsNonFinitePoseAndLeavesTheMapAlone) {
-  MapConfig config = small_config();
-  CameraModel camera;
-  camera.width = 8;
-  camera.height = 6;
-  camera.fx = camera.fy = 8.0;
-  camera.cx = 3.5;
-  camera.cy = 2.5;
-  camera.baseline_m = 0.3;
-  camera.match_sigma_px = 0.25;
-  Mapper mapper(config, camera);
-  std::vector<std::uint16_t> depth(48, 3000);
-  DepthFrameView view{depth.data(), nullptr, 8, 6};
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation().x() = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(mapper.integrate(view, pose).status, FrameStatus::kBadPose);
-  Eigen::Isometry3d sheared = Eigen::Isometry3d::Identity();
-  sheared.linear()(0, 1) = 0.5;
-  EXPECT_EQ(mapper.integrate(view, sheared).status, FrameStatus::kBadPose);
-  EXPECT_EQ(mapper.zones().live_zone_count(), 0);
-  DepthFrameView wrong_size{depth.data(), nullptr, 6, 8};
-  EXPECT_EQ(mapper.integrate(wrong_size, Eigen::Isometry3d::Identity()).status,
-            FrameStatus::kBadFrame);
-}
-
-CameraModel tiny_camera() {
-  CameraModel camera;
-  camera.width = 16;
-  camera.height = 12;
-  camera.fx = camera.fy = 16.0;
-  camera.cx = 7.5;
-  camera.cy = 5.5;
-  camera.baseline_m = 0.3;
-  camera.match_sigma_px = 0.25;
-  camera.depth_scale = 1000.0;
-  return camera;
-}
-
-// Camera at the world origin looking along +x (optical z = world x).
-Eigen::Isometry3d looking_along_x() {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  return pose;
-}
-
-TEST(Mapper, SaysWhenTheGroundItSeesLiesUnderTheEnvironment) {
-  MapConfig config = small_config();  // centred, 4 cells tall: the bottom face 2 m down
-  config.d_max_m = 30.0;
-  CameraModel camera = tiny_camera();
-  camera.width = 64;
-  camera.height = 48;
-  camera.fx = camera.fy = 48.0;
-  camera.cx = 31.5;
-  camera.cy = 23.5;
-  // Depth of a flat ground `drop` metres under a camera looking along +x.
-  auto ground_frame = [&](double drop) {
-    std::vector<std::uint16_t> depth(64 * 48, 0);
-    for (int v = 24; v < 48; ++v)
-      for (int u = 0; u < 64; ++u)
-        depth[static_cast<std::size_t>(v * 64 + u)] =
-            static_cast<std::uint16_t>(drop * camera.fy / (v - camera.cy) * 1000.0);
-    return depth;
-  };
-  Mapper mapper(config, camera);
-  const std::vector<std::uint16_t> near = ground_frame(1.5);
-  const FrameReport inside = mapper.integrate({near.data(), nullptr, 64, 48}, looking_along_x());
-  EXPECT_GT(inside.sampled_hits, 20);
-  EXPECT_EQ(inside.sampled_hits_below_environment, 0);
-  EXPECT_FALSE(ground_below_environment(inside));
-  const std::vector<std::uint16_t> far = ground_frame(6.0);
-  const FrameReport under = mapper.integrate({far.data(), nullptr, 64, 48}, looking_along_x());
-  EXPECT_GT(under.sampled_hits, 10);
-  EXPECT_EQ(under.sampled_hits_below_environment, under.sampled_hits);
-  EXPECT_TRUE(ground_below_environment(under));
-}
-
-TEST(Mapper, SkyFilterTurnsBrightFlatMissingDepthIntoFreeSpace) {
-  MapConfig config = small_config();
-  config.zone_cells = {20, 20, 20};
-  config.blur_radius = 0;
-  const CameraModel camera = tiny_camera();
-  Mapper mapper(config, camera);
-  std::vector<std::uint16_t> depth(16 * 12, 0);  // no depth anywhere
-  std::vector<std::uint8_t> left(16 * 12);
-  for (int v = 0; v < 12; ++v)
-    for (int u = 0; u < 16; ++u) {
-      // Upper half: bright and flat (sky). Lower half: bright but textured.
-      left[static_cast<std::size_t>(v * 16 + u)] =
-          static_cast<std::uint8_t>(v < 6 ? 235 : ((u + v) % 2 ? 250 : 205));
-    }
-  const FrameReport report =
-      mapper.integrate({depth.data(), left.data(), 16, 12}, looking_along_x());
-  EXPECT_EQ(report.status, FrameStatus::kMapped);
-  // Rows 0-4 are flat in their whole 3x3 neighbourhood; row 5 touches the texture.
-  EXPECT_EQ(report.pixels_sky, 5 * 16);
-  EXPECT_EQ(report.rays_free, 5 * 16);
-  EXPECT_EQ(report.rays_hit, 0);
-  EXPECT_EQ(report.pixels_missing, 7 * 16);
-  FusedCell v = 0;
-  // Straight ahead and up: free beyond d_min (1 m) up to d_max (8 m).
-  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({5.0, 0.2, 1.5}), &v));
-  EXPECT_LT(v, 0);
-  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({5.0, 0.2, -1.5}), &v));
-  EXPECT_EQ(v, 0) << "missing depth below the horizon is ignored";
-  // Without the left image, nothing is sky.
-  Mapper blind(config, camera);
-  EXPECT_EQ(blind.integrate({depth.data(), nullptr, 16, 12}, looking_along_x()).pixels_sky, 0);
-}
-
-TEST(Mapper, SkyFlagsMatchTheirDefinitionAtEveryPixel) {
-  // Random bright images near the thresholds (intensity 200, gradient 8) with
-  // missing depth here and there; widths with and without interior columns.
-  // Sky: missing depth, bright, every 8-neighbour (clamped at the border)
-  // within the gradient.
-  std::uint32_t state = 7;
-  const auto next = [&] {
-    state = state * 1664525u + 1013904223u;
-    return state >> 8;
-  };
-  for (const int width : {16, 13, 3, 2, 1}) {
-    const int height = 12;
-    MapConfig config = small_config();
-    config.zone_cells = {20, 20, 20};
-    config.integration = MapConfig::Integration::kProjective;
-    CameraModel camera = tiny_camera();
-    camera.width = width;
-    camera.cx = 0.5 * (width - 1);
-    Mapper mapper(config, camera);
-    const std::size_t pixels = static_cast<std::size_t>(width) * height;
-    std::vector<std::uint16_t> depth(pixels);
-    std::vector<std::uint8_t> left(pixels);
-    for (std::size_t i = 0; i < pixels; ++i) {
-      depth[i] = next() % 3 == 0 ? 3000 : 0;
-      left[i] = static_cast<std::uint8_t>(195 + next() % 12);  // 195..206
-    }
-    int expected = 0;
-    for (int v = 0; v < height; ++v)
-      for (int u = 0; u < width; ++u) {
-        const int c = left[static_cast<std::size_t>(v * width + u)];
-        bool sky = depth[static_cast<std::size_t>(v * width + u)] == 0 && c >= 200;
-        for (int dv = -1; dv <= 1; ++dv)
-          for (int du = -1; du <= 1; ++du) {
-            const int nu = std::clamp(u + du, 0, width - 1), nv = std::clamp(v + dv, 0, height - 1);
-            sky = sky && std::abs(left[static_cast<std::size_t>(nv * width + nu)] - c) <= 8;
-          }
-        expected += sky ? 1 : 0;
-      }
-    const FrameReport report =
-        mapper.integrate({depth.data(), left.data(), width, height}, looking_along_x());
-    EXPECT_EQ(report.pixels_sky, expected) << width;
-  }
-}
-
-TEST(Mapper, PixelCountsForAnyImageWidth) {
-  // Missing, too near, beyond d_max and real depths in a repeating pattern, for
-  // widths that fill whole vector loads, leave a tail, or are narrower than one;
-  // both integration paths count alike.
-  for (const int width : {16, 13, 5}) {
-    for (const auto integration :
-         {MapConfig::Integration::kProjective, MapConfig::Integration::kReference}) {
-      MapConfig config = small_config();
-      config.zone_cells = {20, 20, 20};
-      config.integration = integration;
-      CameraModel camera = tiny_camera();
-      camera.width = width;
-      camera.cx = 0.5 * (width - 1);
-      Mapper mapper(config, camera);
-      const std::uint16_t pattern[4] = {0, 500, 15000, 3000};  // missing, near, far, hit
-      std::vector<std::uint16_t> depth(static_cast<std::size_t>(width) * 12);
-      int expected[4] = {};
-      for (std::size_t i = 0; i < depth.size(); ++i) {
-        const std::size_t kind = (i * 7 + i / 3) % 4;
-        depth[i] = pattern[kind];
-        ++expected[kind];
-      }
-      const FrameReport report =
-          mapper.integrate({depth.data(), nullptr, width, 12}, looking_along_x());
-      EXPECT_EQ(report.pixels_missing, expected[0]) << width;
-      EXPECT_EQ(report.pixels_too_near, expected[1]) << width;
-      EXPECT_EQ(report.rays_free, expected[2]) << width;
-      EXPECT_EQ(report.rays_hit, expected[3]) << width;
-    }
-  }
-}
-
-TEST(Mapper, DepthBeyondDmaxGivesFreeSpaceUpToDmaxOnly) {
-  MapConfig config = small_config();
-  config.zone_cells = {40, 20, 20};
-  config.blur_radius = 0;
-  config.d_max_m = 8.0;
-  Mapper mapper(config, tiny_camera());
-  std::vector<std::uint16_t> depth(16 * 12, 15000);  // 15 m, beyond d_max
-  const FrameReport report = mapper.integrate({depth.data(), nullptr, 16, 12}, looking_along_x());
-  EXPECT_EQ(report.rays_free, 16 * 12);
-  EXPECT_EQ(report.rays_hit, 0);
-  FusedCell v = 0;
-  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({6.5, 0.1, 0.1}), &v));
-  EXPECT_EQ(v, -kCellScale);
-  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({9.5, 0.1, 0.1}), &v));
-  EXPECT_EQ(v, 0) << "nothing past d_max";
-  ASSERT_TRUE(mapper.zones().value_at(mapper.cell_of({15.2, 0.1, 0.1}), &v));
-  EXPECT_EQ(v, 0) << "no obstacle at the far depth";
-
-  // Below d_min: ignored entirely.
-  std::fill(depth.begin(), depth.end(), std::uint16_t{500});
-  const FrameReport near = mapper.integrate({depth.data(), nullptr, 16, 12}, looking_along_x());
-  EXPECT_EQ(near.pixels_too_near, 16 * 12);
-  EXPECT_EQ(near.cells_visited, 0);
-}
-
-}  // namespace
-}  // namespace zonemap
-
-namespace zonemap {
-namespace {
-
-TEST(ZoneSnapshot, BitsAndColumnsMatchTheZoneCellByCell) {
-  // Odd sizes: the last word is partial. Values around the threshold, zeros and
-  // whole unknown columns.
-  const std::array<int, 3> dims{13, 7, 11};
-  const std::size_t n = 13 * 7 * 11;
-  std::vector<FusedCell> cells(n);
-  sim::Rng rng(77);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double r = rng.uniform();
-    cells[i] = r < 0.4 ? 0 : static_cast<FusedCell>(static_cast<int>(rng.uniform() * 400) - 200);
-  }
-  for (int z = 0; z < 11; ++z) cells[static_cast<std::size_t>(3 + 13 * (2 + 7 * z))] = 0;
-  ZoneView view{{1, -2, 3}, {13, -14, 33}, dims, cells.data()};
-  ZoneSnapshot snapshot(dims);
-  snapshot.capture(view, 96);
-  EXPECT_EQ(snapshot.key(), view.key);
-  EXPECT_EQ(snapshot.origin(), view.origin);
-  int occupied = 0;
-  for (int z = 0; z < 11; ++z)
-    for (int y = 0; y < 7; ++y)
-      for (int x = 0; x < 13; ++x) {
-        const std::size_t i = view.index(x, y, z);
-        ASSERT_EQ(snapshot.occupied(i), cells[i] > 96) << x << "," << y << "," << z;
-        occupied += snapshot.occupied(i) ? 1 : 0;
-      }
-  EXPECT_GT(occupied, 50);
-  for (int y = 0; y < 7; ++y)
-    for (int x = 0; x < 13; ++x) {
-      bool known = false;
-      for (int z = 0; z < 11; ++z) known = known || cells[view.index(x, y, z)] != 0;
-      EXPECT_EQ(snapshot.column_known(x, y), known) << x << "," << y;
-    }
-  EXPECT_FALSE(snapshot.column_known(3, 2));
 }
 
 }  // namespace

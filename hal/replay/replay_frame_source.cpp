@@ -5,10 +5,10 @@
 
 #include "hal/os/clock.hpp"
 
-namespace zonemap::hal {
+namespace zonemap::replay {
 
-FrameRead ReplayFrameSource::next(CameraFrame* frame, int /*wait_ms*/, std::string* why) {
-  if (next_ >= sequence_.frame_count()) return FrameRead::kEnd;
+hal::FrameRead ReplayFrameSource::next(hal::CameraFrame* frame, int /*wait_ms*/, std::string* why) {
+  if (next_ >= sequence_.frame_count()) return hal::FrameRead::kEnd;
   const double now = os::monotonic_now_s();
   if (!started_) {
     started_ = true;
@@ -19,7 +19,7 @@ FrameRead ReplayFrameSource::next(CameraFrame* frame, int /*wait_ms*/, std::stri
     if (due > now) std::this_thread::sleep_for(std::chrono::duration<double>(due - now));
   }
   const std::size_t i = next_++;
-  return sequence_.read(i, frame, why) ? FrameRead::kFrame : FrameRead::kRejected;
+  return sequence_.read(i, frame, why) ? hal::FrameRead::kFrame : hal::FrameRead::kRejected;
 }
 
-}  // namespace zonemap::hal
+}  // namespace zonemap::replay

@@ -7,16 +7,16 @@
 #include "hal/frames/frame_source.hpp"
 #include "hal/replay/sequence.hpp"
 
-namespace zonemap::hal {
+namespace zonemap::replay {
 
 // A replay sequence as a frame source, optionally paced like a camera.
-class ReplayFrameSource final : public FrameSource {
+class ReplayFrameSource final : public hal::FrameSource {
  public:
   ReplayFrameSource(const ReplaySequence& sequence, double rate_hz)
       : sequence_(sequence), rate_hz_(rate_hz) {}
   const CameraModel& camera() const override { return sequence_.camera(); }
-  CameraFrame make_frame() const override { return sequence_.make_frame(); }
-  FrameRead next(CameraFrame* frame, int wait_ms, std::string* why) override;
+  hal::CameraFrame make_frame() const override { return sequence_.make_frame(); }
+  hal::FrameRead next(hal::CameraFrame* frame, int wait_ms, std::string* why) override;
   std::size_t next_index() const { return next_; }
 
  private:
@@ -27,4 +27,4 @@ class ReplayFrameSource final : public FrameSource {
   double start_s_ = 0.0;
 };
 
-}  // namespace zonemap::hal
+}  // namespace zonemap::replay

@@ -9,7 +9,7 @@
 #include "hal/codec/png_io.hpp"
 #include "hal/config/yaml_config.hpp"
 
-namespace zonemap::hal {
+namespace zonemap::replay {
 namespace {
 
 bool is_blank_or_comment(const std::string& line) {
@@ -190,13 +190,13 @@ bool parse_trajectory(std::istream& in, const std::string& path, PoseTrack* trac
 
 bool ReplaySequence::open(const std::string& dir, const std::string& camera_path,
                           const MapConfig& config, std::string* error,
-                          const SequenceInsLog* ins_logs) {
+                          const hal::SequenceInsLog* ins_logs) {
   if (!std::filesystem::is_directory(dir)) {
     *error = dir + ": not a directory";
     return false;
   }
   const std::string camera_file = camera_path.empty() ? join(dir, "camera.yaml") : camera_path;
-  if (!load_camera_yaml(camera_file, &camera_, error)) return false;
+  if (!hal::load_camera_yaml(camera_file, &camera_, error)) return false;
   if (config.depth_scale_override > 0.0) camera_.depth_scale = config.depth_scale_override;
 
   ListFilterConfig filter;
@@ -240,11 +240,11 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
     *error = dir + ": no groundtruth.txt (its INS log needs the vehicle links' decoders)";
     return false;
   }
-  const std::unique_ptr<PoseSource> source = ins_logs->open(dir, camera_, filter.gate, error);
+  const std::unique_ptr<hal::PoseSource> source = ins_logs->open(dir, camera_, filter.gate, error);
   if (!source) return false;
-  const PoseLogRead read = read_to_end(*source, &poses_);
+  const hal::PoseLogRead read = hal::read_to_end(*source, &poses_);
   poses_rejected_ = static_cast<int>(read.refused_by_track);
-  const PoseSourceCounters& c = read.counters;
+  const hal::PoseSourceCounters& c = read.counters;
   poses_rejected_ += static_cast<int>(c.gate.rejected_total() + c.malformed);
   pose_counts_.log_malformed = c.malformed;
   pose_counts_.log_implausible = c.gate.rejected_total();
@@ -255,8 +255,8 @@ bool ReplaySequence::open(const std::string& dir, const std::string& camera_path
   return true;
 }
 
-CameraFrame ReplaySequence::make_frame() const {
-  CameraFrame frame;
+hal::CameraFrame ReplaySequence::make_frame() const {
+  hal::CameraFrame frame;
   const auto pixels =
       static_cast<std::size_t>(camera_.width) * static_cast<std::size_t>(camera_.height);
   frame.depth.assign(pixels, 0);
@@ -264,7 +264,7 @@ CameraFrame ReplaySequence::make_frame() const {
   return frame;
 }
 
-bool ReplaySequence::read(std::size_t i, CameraFrame* frame, std::string* why) const {
+bool ReplaySequence::read(std::size_t i, hal::CameraFrame* frame, std::string* why) const {
   const FrameListEntry& entry = frames_[i];
   frame->time_s = entry.time_s;
   frame->has_left = false;
@@ -273,15 +273,15 @@ bool ReplaySequence::read(std::size_t i, CameraFrame* frame, std::string* why) c
     *why = "depth.txt:" + std::to_string(entry.line) + ": " + to_string(entry.time_verdict);
     return false;
   }
-  if (!read_png_gray16(entry.path, camera_.width, camera_.height, frame->depth.data(), why)) {
+  if (!hal::read_png_gray16(entry.path, camera_.width, camera_.height, frame->depth.data(), why)) {
     return false;
   }
   if (!left_paths_[i].empty()) {
     // A bad left image only disables the sky filter for this frame: the depth is good.
-    frame->has_left = read_png_gray8(left_paths_[i], camera_.width, camera_.height,
-                                     frame->left.data(), &frame->left_problem);
+    frame->has_left = hal::read_png_gray8(left_paths_[i], camera_.width, camera_.height,
+                                          frame->left.data(), &frame->left_problem);
   }
   return true;
 }
 
-}  // namespace zonemap::hal
+}  // namespace zonemap::replay

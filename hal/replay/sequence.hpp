@@ -17,7 +17,7 @@
 #include "zonemap/pose_track.hpp"
 #include "zonemap/time_watermark.hpp"
 
-namespace zonemap::hal {
+namespace zonemap::replay {
 
 struct FrameListEntry {
   double time_s = 0.0;
@@ -76,7 +76,7 @@ class ReplaySequence {
   // camera_path: empty to use DIR/camera.yaml. Poses from DIR/groundtruth.txt, or
   // else from the INS log `ins_logs` opens (none given: groundtruth.txt only).
   bool open(const std::string& dir, const std::string& camera_path, const MapConfig& config,
-            std::string* error, const SequenceInsLog* ins_logs = nullptr);
+            std::string* error, const hal::SequenceInsLog* ins_logs = nullptr);
 
   std::size_t frame_count() const { return frames_.size(); }
   const FrameListEntry& entry(std::size_t i) const { return frames_[i]; }
@@ -89,8 +89,8 @@ class ReplaySequence {
   // Decodes frame i into `frame` (whose buffers must come from make_frame()).
   // Returns false with the reason (file and problem) for a frame that must be
   // rejected: unreadable, corrupt, wrong size or bit depth, time out of order.
-  bool read(std::size_t i, CameraFrame* frame, std::string* why) const;
-  CameraFrame make_frame() const;
+  bool read(std::size_t i, hal::CameraFrame* frame, std::string* why) const;
+  hal::CameraFrame make_frame() const;
 
  private:
   CameraModel camera_;
@@ -102,4 +102,4 @@ class ReplaySequence {
   std::vector<std::string> warnings_;
 };
 
-}  // namespace zonemap::hal
+}  // namespace zonemap::replay

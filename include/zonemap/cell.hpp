@@ -25,6 +25,14 @@ constexpr int to_fixed(float units) {
 constexpr float to_units(int fixed) {
   return static_cast<float>(fixed) / static_cast<float>(kCellScale);
 }
+// A sensor-model value as a local-grid cell: Q6, clamped to [-1, 1] (both
+// integration paths write through this, so their cells agree).
+constexpr LocalCell to_local_cell(float units) {
+  const int fixed = to_fixed(units);
+  return static_cast<LocalCell>(fixed < -kCellScale  ? -kCellScale
+                                : fixed > kCellScale ? kCellScale
+                                                     : fixed);
+}
 
 struct CellIndex {
   std::int32_t x = 0;

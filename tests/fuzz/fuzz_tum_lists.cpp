@@ -7,14 +7,14 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
-  std::vector<zonemap::hal::FrameListEntry> entries;
+  std::vector<zonemap::replay::FrameListEntry> entries;
   std::string error;
   std::istringstream list(text);
-  zonemap::hal::parse_frame_list(list, "fuzz.txt", "/nonexistent", &entries, &error);
+  zonemap::replay::parse_frame_list(list, "fuzz.txt", "/nonexistent", &entries, &error);
   zonemap::PoseTrack track(0.1, 0.02);
   int rejected = 0;
   std::vector<std::string> warnings;
   std::istringstream trajectory(text);
-  zonemap::hal::parse_trajectory(trajectory, "fuzz.txt", &track, &rejected, &warnings, &error);
+  zonemap::replay::parse_trajectory(trajectory, "fuzz.txt", &track, &rejected, &warnings, &error);
   return 0;
 }

@@ -40,7 +40,7 @@ double mebibytes(std::uint64_t bytes) {
 void ReplayRun::count_list_rejections() {
   std::int64_t future = 0, past = 0, repeated = 0, not_finite = 0, steps = 0;
   for (std::size_t i = 0; i < sequence_.frame_count(); ++i) {
-    const hal::FrameListEntry& e = sequence_.entry(i);
+    const replay::FrameListEntry& e = sequence_.entry(i);
     future += e.time_verdict == TimeVerdict::kFuture;
     past += e.time_verdict == TimeVerdict::kPast;
     repeated += e.time_verdict == TimeVerdict::kRepeated;
@@ -48,7 +48,7 @@ void ReplayRun::count_list_rejections() {
     steps += e.time_verdict == TimeVerdict::kAdopted &&
              (i == 0 || sequence_.entry(i - 1).time_verdict != TimeVerdict::kAdopted);
   }
-  const hal::PoseListCounts& p = sequence_.pose_counts();
+  const replay::PoseListCounts& p = sequence_.pose_counts();
   stats_.rejections = {{"frames_time_future", future},
                        {"frames_time_past", past},
                        {"frames_time_repeated", repeated},
@@ -361,7 +361,7 @@ void ReplayRun::after_frame(std::size_t frame_index, const Eigen::Isometry3d& po
 
 void ReplayRun::run_pipelined(const runtime::PipelineOptions& options) {
   in_pipeline_ = true;
-  hal::ReplayFrameSource frames(sequence_, options.source_rate_hz);
+  replay::ReplayFrameSource frames(sequence_, options.source_rate_hz);
   hal::ObstacleSink* recorder_sink = recorder_.get();
   const std::span<hal::ObstacleSink* const> sinks(&recorder_sink, recorder_ ? 1 : 0);
   runtime::PipelineOptions with_ground = options;

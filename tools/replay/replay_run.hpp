@@ -62,7 +62,7 @@ class ReplayRun : private runtime::MappingHooks {
     stats_.stereo = std::move(figures);
   }
   Mapper& mapper() { return *mapper_; }
-  const hal::ReplaySequence& sequence() const { return sequence_; }
+  const replay::ReplaySequence& sequence() const { return sequence_; }
   const MapConfig& config() const { return config_; }
   // The configuration's `pipeline:` section, for run_pipelined().
   const runtime::PipelineOptions& pipeline_options() const { return pipeline_options_; }
@@ -102,7 +102,7 @@ class ReplayRun : private runtime::MappingHooks {
   ReplayOptions options_;
   MapConfig config_;
   runtime::PipelineOptions pipeline_options_;
-  hal::ReplaySequence sequence_;
+  replay::ReplaySequence sequence_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<HeightProfile> height_;
   std::unique_ptr<FeatureMap> features_;

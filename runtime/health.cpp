@@ -12,7 +12,11 @@ void Pipeline::Impl::fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
   h->frames_mapped = s.frames_mapped;
   h->frames_rejected = shared_rejected.load(std::memory_order_relaxed) + s.frames_rejected;
   h->frames_skipped_no_pose = s.frames_skipped_no_pose;
-  h->frames_dropped = s.dropped_mapper_behind + shared_pool_full.load(std::memory_order_relaxed);
+  h->dropped_mapper_behind = s.dropped_mapper_behind;
+  h->dropped_pool_full = shared_pool_full.load(std::memory_order_relaxed);
+  h->pose_waits = s.pose_waits;
+  h->frames_ground_below_environment = s.frames_ground_below_environment;
+  h->outputs_skipped = s.outputs_skipped;
   h->poses_in = ins_counters.poses_out.load(std::memory_order_relaxed);
   h->poses_rejected = ins_counters.rejected.load(std::memory_order_relaxed) +
                       ins_counters.malformed.load(std::memory_order_relaxed);
@@ -20,15 +24,16 @@ void Pipeline::Impl::fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
   h->mapping_ms_p50 = s.mapping.percentile(0.50);
   h->mapping_ms_p99 = s.mapping.percentile(0.99);
   h->zones_allocated = static_cast<std::int32_t>(mapper.zones().zones_allocated());
-  h->add("pose_waits", s.pose_waits);
-  h->add("frames_ground_below_environment", s.frames_ground_below_environment);
-  h->add("outputs_skipped", s.outputs_skipped);
+  // The wire carries these by name (health_t's named list, zonemap.Health).
+  h->add("pose_waits", h->pose_waits);
+  h->add("frames_ground_below_environment", h->frames_ground_below_environment);
+  h->add("outputs_skipped", h->outputs_skipped);
   h->add("ins_messages", ins_counters.messages.load(std::memory_order_relaxed));
   h->add("ins_malformed", ins_counters.malformed.load(std::memory_order_relaxed));
   h->add("ins_link_errors", ins_counters.link_errors.load(std::memory_order_relaxed));
   h->add("ins_reanchors", ins_counters.reanchors.load(std::memory_order_relaxed));
-  h->add("dropped_mapper_behind", s.dropped_mapper_behind);
-  h->add("dropped_pool_full", shared_pool_full.load(std::memory_order_relaxed));
+  h->add("dropped_mapper_behind", h->dropped_mapper_behind);
+  h->add("dropped_pool_full", h->dropped_pool_full);
   h->add("extractions_deferred", s.extractions_deferred);
   h->add("reintegration_zone_gone", s.reintegration_zone_gone);
 }
@@ -43,20 +48,12 @@ void Pipeline::Impl::fill_feature_health(hal::HealthSnapshot* h) {
 }
 
 void add_to_run_stats(const PipelineStats& p, hal::RunStats* s) {
-  s->frames_in += p.frames_in;
-  s->frames_rejected += p.frames_rejected;
-  s->frames_skipped_no_pose += p.frames_skipped_no_pose;
-  s->heap_allocations_after_init += p.mapping_thread_allocations + p.output_thread_allocations +
-                                    p.ins_thread_allocations + p.extraction_thread_allocations;
-  s->heap_frees_after_init += p.mapping_thread_frees + p.output_thread_frees + p.ins_thread_frees +
-                              p.extraction_thread_frees;
+  hal::FrameCounters counts = p;
+  // The mapping hooks count these into the run's own figures, frame by frame.
+  counts.frames_mapped = 0;
+  counts.frames_ground_below_environment = 0;
+  *s += counts;
   s->pipeline = true;
-  s->dropped_mapper_behind += p.dropped_mapper_behind;
-  s->dropped_pool_full += p.dropped_pool_full;
-  s->pose_waits += p.pose_waits;
-  s->outputs_published += p.outputs_published;
-  s->outputs_skipped += p.outputs_skipped;
-  s->deadline_misses += p.deadline_misses;
   s->end_to_end_ms_p50 = p.end_to_end.percentile(0.50);
   s->end_to_end_ms_p99 = p.end_to_end.percentile(0.99);
   s->end_to_end_ms_p999 = p.end_to_end.percentile(0.999);

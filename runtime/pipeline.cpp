@@ -74,6 +74,10 @@ PipelineStats Pipeline::Impl::gathered_stats() const {
   const PipelineStats& i = ins_stats;
   const PipelineStats& e = extraction_stats;
   PipelineStats s;
+  // Each thread counts its own frames and outputs (the rejected ones on two).
+  for (const auto* part : {&a, &m, &o, &i, &e}) {
+    static_cast<hal::FrameCounters&>(s) += *part;
+  }
   s.extraction_thread_allocations = e.extraction_thread_allocations;
   s.extraction_thread_frees = e.extraction_thread_frees;
   s.extractions = e.extractions;
@@ -83,29 +87,22 @@ PipelineStats Pipeline::Impl::gathered_stats() const {
   s.reintegration_boxes = m.reintegration_boxes;
   s.reintegration_cells = m.reintegration_cells;
   s.reintegration_zone_gone = m.reintegration_zone_gone;
-  s.frames_in = a.frames_in;
-  s.frames_rejected = a.frames_rejected + m.frames_rejected;
-  s.dropped_pool_full = a.dropped_pool_full;
   s.frames_lost = a.frames_lost;
   s.stopped = a.stopped;
-  s.frames_mapped = m.frames_mapped;
-  s.frames_skipped_no_pose = m.frames_skipped_no_pose;
-  s.dropped_mapper_behind = m.dropped_mapper_behind;
-  s.pose_waits = m.pose_waits;
-  s.frames_ground_below_environment = m.frames_ground_below_environment;
-  s.outputs_skipped = m.outputs_skipped;
   s.mapping_thread_allocations = m.mapping_thread_allocations;
   s.mapping_thread_frees = m.mapping_thread_frees;
   s.acquire_to_map_start = m.acquire_to_map_start;
   s.mapping = m.mapping;
-  s.outputs_published = o.outputs_published;
   s.health_published = o.health_published;
-  s.deadline_misses = o.deadline_misses;
   s.end_to_end = o.end_to_end;
   s.output_thread_allocations = o.output_thread_allocations;
   s.output_thread_frees = o.output_thread_frees;
   s.ins_thread_allocations = i.ins_thread_allocations;
   s.ins_thread_frees = i.ins_thread_frees;
+  s.heap_allocations_after_init = s.mapping_thread_allocations + s.output_thread_allocations +
+                                  s.ins_thread_allocations + s.extraction_thread_allocations;
+  s.heap_frees_after_init = s.mapping_thread_frees + s.output_thread_frees + s.ins_thread_frees +
+                            s.extraction_thread_frees;
   for (const auto* part : {&a, &m, &o, &i, &e}) {
     s.warnings.insert(s.warnings.end(), part->warnings.begin(), part->warnings.end());
   }

@@ -53,18 +53,9 @@ struct PipelineOptions {
   std::size_t footprint_rects = 16384;  // footprint rectangles per output buffer
 };
 
-struct PipelineStats {
-  std::int64_t frames_in = 0;
-  std::int64_t frames_mapped = 0;
-  std::int64_t frames_rejected = 0;                  // unreadable, bad pose
-  std::int64_t frames_skipped_no_pose = 0;           // no pose within tolerance after waiting
-  std::int64_t dropped_mapper_behind = 0;            // newest wins: older waiting frames dropped
-  std::int64_t dropped_pool_full = 0;                // no free frame slot: the new frame dropped
-  std::int64_t pose_waits = 0;                       // frames that had to wait for their pose
-  std::int64_t frames_ground_below_environment = 0;  // the ground out of the map's reach
-  std::int64_t outputs_published = 0;
-  std::int64_t outputs_skipped = 0;  // the output stage still held every buffer
-  std::int64_t deadline_misses = 0;  // end-to-end latency over the frame period
+// The shared counters (hal::FrameCounters; heap_* the threads' sum) plus each
+// thread's allocations, the extraction protocol's figures and the latencies.
+struct PipelineStats : hal::FrameCounters {
   std::int64_t mapping_thread_allocations = 0, mapping_thread_frees = 0;
   std::int64_t output_thread_allocations = 0, output_thread_frees = 0;
   std::int64_t ins_thread_allocations = 0, ins_thread_frees = 0;

@@ -62,7 +62,7 @@ void LcmObstacleSink::publish_health(const hal::HealthSnapshot& h, double now_s)
   m.frames_mapped = h.frames_mapped;
   m.frames_rejected = h.frames_rejected;
   m.frames_skipped_no_pose = h.frames_skipped_no_pose;
-  m.frames_dropped = h.frames_dropped;
+  m.frames_dropped = h.frames_dropped();
   m.deadline_misses = h.deadline_misses;
   m.poses_in = h.poses_in;
   m.poses_rejected = h.poses_rejected;

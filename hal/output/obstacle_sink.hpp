@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include "hal/output/frame_counters.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/obstacle_distance.hpp"
 
@@ -58,12 +59,11 @@ struct MergedUpdate {
 };
 
 // Every counter of the run, for the periodic health message and stats.json.
-struct HealthSnapshot {
+// The health message: the shared counters (FrameCounters) so far, plus the
+// vehicle's own figures.
+struct HealthSnapshot : FrameCounters {
   double time_s = 0.0, uptime_s = 0.0;
-  std::int64_t frames_in = 0, frames_mapped = 0, frames_rejected = 0, frames_skipped_no_pose = 0;
-  std::int64_t frames_dropped = 0, deadline_misses = 0;
   std::int64_t poses_in = 0, poses_rejected = 0;
-  std::int64_t heap_allocations_after_init = 0;
   double mapping_ms_p50 = 0, mapping_ms_p99 = 0;
   double end_to_end_ms_p50 = 0, end_to_end_ms_p99 = 0, end_to_end_ms_p999 = 0;
   std::int64_t static_memory_bytes = 0, rss_bytes = 0;

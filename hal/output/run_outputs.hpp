@@ -10,22 +10,18 @@
 
 #include <Eigen/Core>
 
+#include "hal/output/frame_counters.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"
 #include "zonemap/zone_map.hpp"
 
 namespace zonemap::hal {
 
-struct RunStats {
-  std::int64_t frames_in = 0;
-  std::int64_t frames_mapped = 0;
-  std::int64_t frames_skipped_no_pose = 0;
-  std::int64_t frames_rejected = 0;
+// stats.json: the shared counters (FrameCounters) plus the run's own figures.
+struct RunStats : FrameCounters {
   double frame_ms_p50 = 0.0;
   double frame_ms_p99 = 0.0;
   double frame_ms_max = 0.0;
-  std::int64_t heap_allocations_after_init = 0;
-  std::int64_t heap_frees_after_init = 0;
   std::uint64_t static_memory_bytes = 0;
   std::int64_t zones_allocated = 0;
   std::int64_t zones_discarded = 0;
@@ -43,9 +39,6 @@ struct RunStats {
   std::int64_t pixels_sky = 0;
   std::int64_t pixels_missing = 0;
   std::int64_t pixels_too_near = 0;
-  // Frames whose sampled measurements mostly end under the environment's bottom
-  // face: the ground lies out of the map's reach (warned about at the end).
-  std::int64_t frames_ground_below_environment = 0;
   std::int64_t occupied_cells_final = 0;
   std::int64_t height_profile_columns_outside = 0;
   std::uint64_t local_grid_bytes = 0;
@@ -60,12 +53,6 @@ struct RunStats {
   double extract_ms_max = 0.0;
   // The threaded pipeline (zonemap-replay --pipeline).
   bool pipeline = false;
-  std::int64_t dropped_mapper_behind = 0;
-  std::int64_t dropped_pool_full = 0;
-  std::int64_t pose_waits = 0;
-  std::int64_t outputs_published = 0;
-  std::int64_t outputs_skipped = 0;
-  std::int64_t deadline_misses = 0;
   double end_to_end_ms_p50 = 0.0, end_to_end_ms_p99 = 0.0, end_to_end_ms_p999 = 0.0;
   double end_to_end_ms_max = 0.0;
   double queue_ms_p99 = 0.0;

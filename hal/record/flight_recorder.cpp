@@ -625,7 +625,7 @@ void FlightRecorder::Impl::write_health(const hal::HealthSnapshot& h) {
   j.key("frames_rejected").integer(h.frames_rejected);
   j.key("frames_skipped_no_pose").integer(h.frames_skipped_no_pose);
   j.key("frames_dropped")
-      .integer(h.frames_dropped)
+      .integer(h.frames_dropped())
       .key("deadline_misses")
       .integer(h.deadline_misses);
   j.key("poses_in").integer(h.poses_in).key("poses_rejected").integer(h.poses_rejected);

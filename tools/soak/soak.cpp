@@ -111,7 +111,7 @@ class SamplingSink final : public hal::ObstacleSink {
     s.uptime_s = h.uptime_s;
     s.frames_in = h.frames_in;
     s.frames_mapped = h.frames_mapped;
-    s.frames_dropped = h.frames_dropped;
+    s.frames_dropped = h.frames_dropped();
     s.allocations = h.heap_allocations_after_init;
     s.features = h.features;
     s.zones_allocated = h.zones_allocated;

@@ -25,31 +25,49 @@ VehicleDaemon::~VehicleDaemon() = default;
 bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   config_ = config;
   if (!hal::load_map_config(config.mapping_path, &map_config_, error)) return false;
-  using Frames = VehicleConfig::FrameSourceKind;
-  using Poses = VehicleConfig::PoseSourceKind;
-  if (config.frames == Frames::kReplay) {
+  config_.gate.time = map_config_.timestamps;
+  if (!open_frames(error) || !open_poses(error)) return false;
+  mapper_ = std::make_unique<Mapper>(map_config_, camera_);
+  features_ = std::make_unique<FeatureMap>(map_config_, camera_.world_z_up);
+  features_->set_camera(camera_);
+  mapper_->zones().add_observer(features_.get());
+  if (!open_sinks(error)) return false;
+  frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
+  return make_pipeline(error);
+}
+
+// Frames from a replay sequence (host, desk) or the V4L2 camera (FPGA depth).
+bool VehicleDaemon::open_frames(std::string* error) {
+  const VehicleConfig& config = config_;
+  if (config.frames == VehicleConfig::FrameSourceKind::kReplay) {
     const ins_log::SequenceInsLogs ins_logs;
     if (!sequence_.open(config.sequence_dir, config.camera_path, map_config_, error, &ins_logs)) {
       return false;
     }
     camera_ = sequence_.camera();
     frames_ = std::make_unique<replay::ReplayFrameSource>(sequence_, config.replay_rate_hz);
-  } else {
-    if (!hal::load_camera_yaml(config.camera_path, &camera_, error)) return false;
-    if (map_config_.depth_scale_override > 0.0)
-      camera_.depth_scale = map_config_.depth_scale_override;
-    v4l2::V4l2Config v;
-    v.device = config.v4l2_device;
-    v.format = config.v4l2_format == "Z16" ? v4l2::DepthFormat::kZ16 : v4l2::DepthFormat::kY16;
-    v.time = map_config_.timestamps;
-    auto camera = std::make_unique<v4l2::V4l2FrameSource>(v, camera_);
-    if (!camera->open(error)) return false;
-    v4l2_ = camera.get();
-    frames_ = std::move(camera);
+    return true;
   }
+  if (!hal::load_camera_yaml(config.camera_path, &camera_, error)) return false;
+  if (map_config_.depth_scale_override > 0.0)
+    camera_.depth_scale = map_config_.depth_scale_override;
+  v4l2::V4l2Config v;
+  v.device = config.v4l2_device;
+  v.format = config.v4l2_format == "Z16" ? v4l2::DepthFormat::kZ16 : v4l2::DepthFormat::kY16;
+  v.time = map_config_.timestamps;
+  auto camera = std::make_unique<v4l2::V4l2FrameSource>(v, camera_);
+  if (!camera->open(error)) return false;
+  v4l2_ = camera.get();
+  frames_ = std::move(camera);
+  return true;
+}
+
+// Poses: the sequence's, an INS log read whole at start, or the live INS (LCM, CAN).
+bool VehicleDaemon::open_poses(std::string* error) {
+  using Poses = VehicleConfig::PoseSourceKind;
+  const VehicleConfig& config = config_;
   const bool z_up = camera_.world_z_up;
   const Eigen::Isometry3d& mount = camera_.body_T_camera;
-  config_.gate.time = map_config_.timestamps;
   switch (config.poses) {
     case Poses::kSequence:
       if (sequence_.poses().size() == 0) {
@@ -57,48 +75,53 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
         return false;
       }
       replay_poses_ = &sequence_.poses();
-      break;
+      return true;
     case Poses::kLcmLog:
-    case Poses::kCandump: {
-      ins_log::InsLogSettings settings;
-      settings.kind = config.poses == Poses::kLcmLog ? ins_log::InsLogSettings::Kind::kLcmLog
-                                                     : ins_log::InsLogSettings::Kind::kCandump;
-      settings.path = config.pose_log_path;
-      settings.lcm_channel = config.lcm_channel;
-      settings.can_profile = config.can_profile;
-      settings.time_offset_s = config.time_offset_s;
-      const std::unique_ptr<hal::PoseSource> log =
-          ins_log::open_ins_log(settings, config_.gate, mount, z_up, error);
-      if (!log) return false;
-      // A log is read whole at start and replayed with the frames.
-      log_poses_ = PoseTrack(map_config_.pose_max_gap_s, map_config_.pose_tolerance_s);
-      pose_counters_ = hal::read_to_end(*log, &log_poses_).counters;
-      if (log_poses_.size() == 0) {
-        *error = config.pose_log_path + ": no usable INS solution";
-        return false;
-      }
-      replay_poses_ = &log_poses_;
-      break;
-    }
+    case Poses::kCandump:
+      return open_pose_log(error);
     case Poses::kLcm:
       live_poses_ = std::make_unique<lcm_link::LcmPoseSource>(
-          config.lcm_url, config.lcm_channel, z_up, config_.gate, mount, config.time_offset_s);
-      break;
+          config.lcm_url, config.lcm_channel, z_up, config.gate, mount, config.time_offset_s);
+      return true;
     case Poses::kCan:
       live_poses_ = std::make_unique<can::SocketCanPoseSource>(
-          config.can_interface, config.can_profile, config_.gate, mount,
+          config.can_interface, config.can_profile, config.gate, mount,
           config.time_offset_s + can::SocketCanPoseSource::monotonic_offset());
-      break;
+      return true;
   }
+  return true;
+}
 
-  mapper_ = std::make_unique<Mapper>(map_config_, camera_);
-  features_ = std::make_unique<FeatureMap>(map_config_, z_up);
-  features_->set_camera(camera_);
-  mapper_->zones().add_observer(features_.get());
-  const std::size_t max_boxes = features_->capacity();
+// A recorded INS log (LCM log, candump), read whole and replayed with the frames.
+bool VehicleDaemon::open_pose_log(std::string* error) {
+  const VehicleConfig& config = config_;
+  ins_log::InsLogSettings settings;
+  settings.kind = config.poses == VehicleConfig::PoseSourceKind::kLcmLog
+                      ? ins_log::InsLogSettings::Kind::kLcmLog
+                      : ins_log::InsLogSettings::Kind::kCandump;
+  settings.path = config.pose_log_path;
+  settings.lcm_channel = config.lcm_channel;
+  settings.can_profile = config.can_profile;
+  settings.time_offset_s = config.time_offset_s;
+  const std::unique_ptr<hal::PoseSource> log = ins_log::open_ins_log(
+      settings, config.gate, camera_.body_T_camera, camera_.world_z_up, error);
+  if (!log) return false;
+  log_poses_ = PoseTrack(map_config_.pose_max_gap_s, map_config_.pose_tolerance_s);
+  pose_counters_ = hal::read_to_end(*log, &log_poses_).counters;
+  if (log_poses_.size() == 0) {
+    *error = config.pose_log_path + ": no usable INS solution";
+    return false;
+  }
+  replay_poses_ = &log_poses_;
+  return true;
+}
+
+// The flight controller's links: CAN, LCM, MAVLink, each when configured.
+bool VehicleDaemon::open_sinks(std::string* error) {
+  const VehicleConfig& config = config_;
   if (config.can_output) {
-    sinks_.push_back(std::make_unique<can::CanObstacleSink>(config.can_output_interface,
-                                                            config.can_obstacles, max_boxes));
+    sinks_.push_back(std::make_unique<can::CanObstacleSink>(
+        config.can_output_interface, config.can_obstacles, features_->capacity()));
   }
   if (config.lcm_output) {
     lcm_link::LcmOutputConfig lcm = config.lcm;
@@ -111,16 +134,19 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
     if (!mavlink->open(error)) return false;
     sinks_.push_back(std::move(mavlink));
   }
-  frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
+  return true;
+}
 
+// The runtime with the config's pipeline: section, the recorder and the sinks.
+bool VehicleDaemon::make_pipeline(std::string* error) {
   runtime::PipelineOptions options;
-  if (!runtime::load_pipeline_options(config.mapping_path, &options, error)) return false;
-  if (!config.record_path.empty() && !open_recorder(options.footprint_rects, error)) return false;
-  options.lossless = !config.live;
-  options.health_period_s = config.health_period_s;
-  options.body_T_camera = mount;
-  options.world_z_up = z_up;
-  options.sectors = config.mavlink.sectors;
+  if (!runtime::load_pipeline_options(config_.mapping_path, &options, error)) return false;
+  if (!config_.record_path.empty() && !open_recorder(options.footprint_rects, error)) return false;
+  options.lossless = !config_.live;
+  options.health_period_s = config_.health_period_s;
+  options.body_T_camera = camera_.body_T_camera;
+  options.world_z_up = camera_.world_z_up;
+  options.sectors = config_.mavlink.sectors;
   std::vector<hal::ObstacleSink*> sinks;
   for (auto& s : sinks_) sinks.push_back(s.get());
   pipeline_ = std::make_unique<runtime::Pipeline>(

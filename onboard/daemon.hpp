@@ -41,6 +41,11 @@ class VehicleDaemon : private runtime::MappingHooks {
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
                    const FrameReport& report, double mapping_ms) override;
   void frame_mapped(const hal::CameraFrame& frame, const Eigen::Isometry3d& pose) override;
+  bool open_frames(std::string* error);
+  bool open_poses(std::string* error);
+  bool open_pose_log(std::string* error);
+  bool open_sinks(std::string* error);
+  bool make_pipeline(std::string* error);
   bool open_recorder(std::size_t footprint_rects, std::string* error);
   void close_recorder();
 

@@ -77,6 +77,102 @@ bool stereo_if_asl(zonemap::tools::ReplayOptions* options, const std::string& ou
 #endif
 }
 
+// The command line: what to map, where to, and how.
+struct Arguments {
+  zonemap::tools::ReplayOptions options;
+  zonemap::runtime::PipelineOptions pipeline;  // flags only: lossless, rate, mlock
+  bool pipelined = false;
+  bool record = true;
+  std::string out_dir;
+};
+
+// False (after saying why) when the command line is unusable.
+bool parse_arguments(int argc, char** argv, Arguments* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&](std::string* target) {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "zonemap-replay: %s needs a value\n", arg.c_str());
+        return false;
+      }
+      *target = argv[++i];
+      return true;
+    };
+    bool ok = true;
+    if (arg == "--config") {
+      ok = value(&a->options.config_path);
+    } else if (arg == "--out") {
+      ok = value(&a->out_dir);
+    } else if (arg == "--camera") {
+      ok = value(&a->options.camera_path);
+    } else if (arg == "--quiet") {
+      a->options.quiet = true;
+    } else if (arg == "--no-record") {
+      a->record = false;
+    } else if (arg == "--depth-every") {
+      std::string every;
+      ok = value(&every);
+      a->options.record_depth_every = std::atoi(every.c_str());
+      if (ok && (a->options.record_depth_every < 0 ||
+                 every.find_first_not_of("0123456789") != std::string::npos)) {
+        std::fprintf(stderr, "zonemap-replay: --depth-every needs a count >= 0\n");
+        ok = false;
+      }
+    } else if (arg == "--pipeline") {
+      a->pipelined = true;
+    } else if (arg == "--live") {
+      a->pipelined = true;
+      a->pipeline.lossless = false;
+    } else if (arg == "--rate") {
+      std::string rate;
+      ok = value(&rate);
+      a->pipelined = true;
+      a->pipeline.source_rate_hz = std::atof(rate.c_str());
+      if (!(a->pipeline.source_rate_hz > 0.0)) {
+        std::fprintf(stderr, "zonemap-replay: --rate needs a frame rate > 0\n");
+        ok = false;
+      }
+    } else if (arg == "--links") {
+      ok = value(&a->options.links_dir);
+    } else if (arg == "--mlock") {
+      a->pipeline.lock_memory = true;
+    } else if (!arg.empty() && arg[0] != '-' && a->options.sequence_dir.empty()) {
+      a->options.sequence_dir = arg;
+    } else {
+      std::fprintf(stderr, "zonemap-replay: unknown argument %s\n", arg.c_str());
+      ok = false;
+    }
+    if (!ok) return false;
+  }
+  if (a->pipelined && !a->options.links_dir.empty()) {
+    std::fprintf(stderr,
+                 "zonemap-replay: --links needs the single-threaded replay (its files "
+                 "are stamped with frame times; the threaded runtime's with the clock)\n");
+    return false;
+  }
+  if (a->options.sequence_dir.empty() || a->options.config_path.empty() || a->out_dir.empty()) {
+    std::fputs(kUsage, stderr);
+    return false;
+  }
+  return true;
+}
+
+void print_summary(const zonemap::hal::RunStats& s, const Arguments& a) {
+  std::printf(
+      "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld, dropped %lld; frame ms "
+      "p50 %.2f p99 %.2f "
+      "max %.2f; zones allocated %lld; reserved %.1f MiB; heap allocations after init %lld\n"
+      "outputs: %s/stats.json %s/boxes.csv %s/height.png %s/occupied.ply %s/report.html%s\n",
+      static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
+      static_cast<long long>(s.frames_skipped_no_pose), static_cast<long long>(s.frames_rejected),
+      static_cast<long long>(s.frames_dropped()), s.frame_ms_p50, s.frame_ms_p99, s.frame_ms_max,
+      static_cast<long long>(s.zones_allocated),
+      static_cast<double>(s.static_memory_bytes) / 1048576.0,
+      static_cast<long long>(s.heap_allocations_after_init), a.out_dir.c_str(), a.out_dir.c_str(),
+      a.out_dir.c_str(), a.out_dir.c_str(), a.out_dir.c_str(),
+      a.record ? (" " + a.out_dir + "/run.mcap").c_str() : "");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -90,118 +186,36 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s: %s\n", argv[0], cpu_problem.c_str());
     return 2;
   }
-  zonemap::tools::ReplayOptions options;
-  zonemap::runtime::PipelineOptions pipeline;  // flags only: lossless, rate, mlock
-  bool pipelined = false;
-  bool record = true;
-  std::string out_dir;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&](std::string* target) {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "zonemap-replay: %s needs a value\n", arg.c_str());
-        return false;
-      }
-      *target = argv[++i];
-      return true;
-    };
-    bool ok = true;
-    if (arg == "--config") {
-      ok = value(&options.config_path);
-    } else if (arg == "--out") {
-      ok = value(&out_dir);
-    } else if (arg == "--camera") {
-      ok = value(&options.camera_path);
-    } else if (arg == "--quiet") {
-      options.quiet = true;
-    } else if (arg == "--no-record") {
-      record = false;
-    } else if (arg == "--depth-every") {
-      std::string every;
-      ok = value(&every);
-      options.record_depth_every = std::atoi(every.c_str());
-      if (ok && (options.record_depth_every < 0 ||
-                 every.find_first_not_of("0123456789") != std::string::npos)) {
-        std::fprintf(stderr, "zonemap-replay: --depth-every needs a count >= 0\n");
-        ok = false;
-      }
-    } else if (arg == "--pipeline") {
-      pipelined = true;
-    } else if (arg == "--live") {
-      pipelined = true;
-      pipeline.lossless = false;
-    } else if (arg == "--rate") {
-      std::string rate;
-      ok = value(&rate);
-      pipelined = true;
-      pipeline.source_rate_hz = std::atof(rate.c_str());
-      if (!(pipeline.source_rate_hz > 0.0)) {
-        std::fprintf(stderr, "zonemap-replay: --rate needs a frame rate > 0\n");
-        ok = false;
-      }
-    } else if (arg == "--links") {
-      ok = value(&options.links_dir);
-    } else if (arg == "--mlock") {
-      pipeline.lock_memory = true;
-    } else if (!arg.empty() && arg[0] != '-' && options.sequence_dir.empty()) {
-      options.sequence_dir = arg;
-    } else {
-      std::fprintf(stderr, "zonemap-replay: unknown argument %s\n", arg.c_str());
-      ok = false;
-    }
-    if (!ok) return 2;
-  }
-  if (pipelined && !options.links_dir.empty()) {
-    std::fprintf(stderr,
-                 "zonemap-replay: --links needs the single-threaded replay (its files "
-                 "are stamped with frame times; the threaded runtime's with the clock)\n");
-    return 2;
-  }
-  if (options.sequence_dir.empty() || options.config_path.empty() || out_dir.empty()) {
-    std::fputs(kUsage, stderr);
-    return 2;
-  }
-  options.progress = !options.quiet;
+  Arguments a;
+  if (!parse_arguments(argc, argv, &a)) return 2;
+  a.options.progress = !a.options.quiet;
   std::vector<std::pair<std::string, std::int64_t>> stereo_figures;
-  if (!stereo_if_asl(&options, out_dir, &stereo_figures)) return 1;
-  if (record) {
+  if (!stereo_if_asl(&a.options, a.out_dir, &stereo_figures)) return 1;
+  if (a.record) {
     std::error_code ec;
-    std::filesystem::create_directories(out_dir, ec);  // the recording starts with the run
-    options.record_path = out_dir + "/run.mcap";
+    std::filesystem::create_directories(a.out_dir, ec);  // the recording starts with the run
+    a.options.record_path = a.out_dir + "/run.mcap";
   }
   zonemap::tools::ReplayRun run;
   std::string error;
-  if (!run.open(options, &error)) {
+  if (!run.open(a.options, &error)) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return 1;
   }
   run.set_stereo_figures(stereo_figures);
-  if (pipelined) {
+  if (a.pipelined) {
     auto options_from_config = run.pipeline_options();
-    options_from_config.lossless = pipeline.lossless;
-    options_from_config.source_rate_hz = pipeline.source_rate_hz;
-    options_from_config.lock_memory = options_from_config.lock_memory || pipeline.lock_memory;
+    options_from_config.lossless = a.pipeline.lossless;
+    options_from_config.source_rate_hz = a.pipeline.source_rate_hz;
+    options_from_config.lock_memory = options_from_config.lock_memory || a.pipeline.lock_memory;
     run.run_pipelined(options_from_config);
   } else {
     run.run();
   }
-  if (!run.write_outputs(out_dir, &error)) {
+  if (!run.write_outputs(a.out_dir, &error)) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return 1;
   }
-  const auto& s = run.stats();
-  std::printf(
-      "frames in %lld, mapped %lld, skipped (no pose) %lld, rejected %lld, dropped %lld; frame ms "
-      "p50 %.2f p99 %.2f "
-      "max %.2f; zones allocated %lld; reserved %.1f MiB; heap allocations after init %lld\n"
-      "outputs: %s/stats.json %s/boxes.csv %s/height.png %s/occupied.ply %s/report.html%s\n",
-      static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_mapped),
-      static_cast<long long>(s.frames_skipped_no_pose), static_cast<long long>(s.frames_rejected),
-      static_cast<long long>(s.dropped_mapper_behind + s.dropped_pool_full), s.frame_ms_p50,
-      s.frame_ms_p99, s.frame_ms_max, static_cast<long long>(s.zones_allocated),
-      static_cast<double>(s.static_memory_bytes) / 1048576.0,
-      static_cast<long long>(s.heap_allocations_after_init), out_dir.c_str(), out_dir.c_str(),
-      out_dir.c_str(), out_dir.c_str(), out_dir.c_str(),
-      record ? (" " + out_dir + "/run.mcap").c_str() : "");
+  print_summary(run.stats(), a);
   return 0;
 }

@@ -303,6 +303,135 @@ bool is_asl_recording(const std::string& dir) {
   return fs::exists(fs::path(dir) / "mav0" / "cam0" / "data.csv");
 }
 
+namespace {
+
+// The figures the matcher gathers over the pairs, for the report.
+struct PairFigures {
+  std::vector<double> valid_shares, bm_shares, disagreements, lr, ms;
+};
+
+// Every cam0 image with a cam1 image at the same time: rectified, matched, written
+// as OUT/depth/<ns>.png and OUT/left/<ns>.png and listed.
+bool match_pairs(const AslCamera& cam0, const AslCamera& cam1, const Rectification& r,
+                 const StereoOptions& o, const std::string& asl_dir, const std::string& out_dir,
+                 StereoReport* report, PairFigures* figures, std::string* error) {
+  std::ofstream depth_list(out_dir + "/depth.txt"), left_list(out_dir + "/left.txt");
+  depth_list << "# depth by SGBM from " << asl_dir << " (zonemap-stereo)\n";
+  left_list << "# rectified left images\n";
+  for (const auto& [ns, path] : cam1.frames) report->cam1_without_cam0 += !cam0.frames.count(ns);
+  auto sgbm = make_sgbm(o);
+  int index = 0;
+  for (const auto& [ns, left_path] : cam0.frames) {
+    const auto right = cam1.frames.find(ns);
+    if (right == cam1.frames.end()) {
+      ++report->cam0_without_cam1;
+      std::fprintf(stderr, "zonemap-stereo: %s: no cam1 image at the same time: skipped\n",
+                   left_path.c_str());
+      continue;
+    }
+    ++report->pairs;
+    const cv::Mat left_raw = cv::imread(left_path, cv::IMREAD_GRAYSCALE);
+    const cv::Mat right_raw = cv::imread(right->second, cv::IMREAD_GRAYSCALE);
+    if (left_raw.empty() || right_raw.empty() || left_raw.cols != cam0.width ||
+        left_raw.rows != cam0.height || right_raw.size() != left_raw.size()) {
+      ++report->unreadable;
+      std::fprintf(stderr, "zonemap-stereo: %s: unreadable or not %dx%d: pair skipped\n",
+                   (left_raw.empty() ? left_path : right->second).c_str(), cam0.width, cam0.height);
+      continue;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat left, right_rect, disparity, depth;
+    cv::remap(left_raw, left, r.map0x, r.map0y, cv::INTER_LINEAR);
+    cv::remap(right_raw, right_rect, r.map1x, r.map1y, cv::INTER_LINEAR);
+    sgbm->compute(left, right_rect, disparity);
+    figures->valid_shares.push_back(depth_from_disparity(disparity, r, o, &depth));
+    figures->ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count());
+    if (o.reference_every > 0 && index % o.reference_every == 0) {
+      const ReferenceFigures ref = reference(left, right_rect, disparity, o);
+      figures->bm_shares.push_back(ref.bm_valid_share);
+      figures->disagreements.push_back(ref.disagreement_px);
+      figures->lr.insert(figures->lr.end(), ref.lr_differences.begin(), ref.lr_differences.end());
+    }
+    ++index;
+    const std::string name = std::to_string(ns) + ".png";
+    if (!cv::imwrite(out_dir + "/depth/" + name, depth) ||
+        !cv::imwrite(out_dir + "/left/" + name, left)) {
+      *error = out_dir + ": cannot write " + name;
+      return false;
+    }
+    depth_list << ns_to_seconds(ns) << " depth/" << name << "\n";
+    left_list << ns_to_seconds(ns) << " left/" << name << "\n";
+    ++report->written;
+  }
+  return true;
+}
+
+// Medians and the matcher's sigma; returns eq. (1)'s sigma: the larger of the two
+// measurements (left-right consistency shares the matcher's own biases and reads
+// low), never below the 1/16 px step.
+double summarise(const PairFigures& figures, StereoReport* report) {
+  report->valid_share_median = median(figures.valid_shares);
+  report->reference_valid_share_median = median(figures.bm_shares);
+  report->reference_disagreement_px_median = median(figures.disagreements);
+  report->ms_per_pair_median = median(figures.ms);
+  if (!figures.lr.empty()) {
+    const double m = median(figures.lr);
+    std::vector<double> dev;
+    for (double d : figures.lr) dev.push_back(std::abs(d - m));
+    report->sigma_px = 1.4826 * median(dev) / std::sqrt(2.0);
+  }
+  // The block matcher's disagreement, read as two independent matchers of equal
+  // precision: median |d1 - d2| = 0.6745 * sqrt(2) * sigma.
+  report->sigma_px_from_reference =
+      report->reference_disagreement_px_median / (0.6745 * std::sqrt(2.0));
+  return std::max({report->sigma_px, report->sigma_px_from_reference, 1.0 / 16.0});
+}
+
+bool write_camera_yaml(const std::string& path, const std::string& asl_dir, const AslCamera& cam0,
+                       const Rectification& r, double sigma, double depth_scale,
+                       const Eigen::Isometry3d& frd_T_camera) {
+  const Eigen::Quaterniond q(frd_T_camera.linear());
+  const Eigen::Vector3d t = frd_T_camera.translation();
+  std::ofstream camera(path);
+  char buf[160];
+  camera << "# rectified left camera of " << asl_dir << " (zonemap-stereo)\n";
+  camera << "width: " << cam0.width << "\nheight: " << cam0.height << "\n";
+  std::snprintf(buf, sizeof(buf), "fx: %.4f\nfy: %.4f\ncx: %.4f\ncy: %.4f\n", r.f, r.f, r.cx, r.cy);
+  camera << buf;
+  std::snprintf(buf, sizeof(buf),
+                "baseline_m: %.6f\nmatch_sigma_px: %.3f   # measured: left-right consistency\n",
+                r.baseline_m, sigma);
+  camera << buf << "depth_scale: " << depth_scale << "\n";
+  std::snprintf(buf, sizeof(buf),
+                "body_T_camera: {t: [%.6f, %.6f, %.6f], q: [%.9f, %.9f, %.9f, %.9f]}\n", t.x(),
+                t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  camera << buf << "world_z_up: true\n";
+  return static_cast<bool>(camera);
+}
+
+bool write_stereo_json(const std::string& path, const StereoReport& report, const Rectification& r,
+                       double sigma) {
+  std::ofstream json(path);
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.4f", report.valid_share_median);
+  json << "{\"pairs\": " << report.pairs << ", \"written\": " << report.written
+       << ", \"cam0_without_cam1\": " << report.cam0_without_cam1
+       << ", \"cam1_without_cam0\": " << report.cam1_without_cam0
+       << ", \"unreadable\": " << report.unreadable << ", \"poses\": " << report.poses
+       << ", \"poses_rejected\": " << report.poses_rejected << ",\n \"focal_px\": " << r.f
+       << ", \"baseline_m\": " << r.baseline_m << ", \"sigma_px_left_right\": " << report.sigma_px
+       << ", \"sigma_px_from_reference\": " << report.sigma_px_from_reference
+       << ", \"match_sigma_px\": " << sigma << ",\n \"valid_share_median\": " << buf
+       << ", \"reference_bm_valid_share_median\": " << report.reference_valid_share_median
+       << ", \"reference_disagreement_px_median\": " << report.reference_disagreement_px_median
+       << ",\n \"stereo_ms_per_pair_median\": " << report.ms_per_pair_median << "}\n";
+  return static_cast<bool>(json);
+}
+
+}  // namespace
+
 bool convert_asl(const std::string& asl_dir, const std::string& out_dir, const StereoOptions& o,
                  StereoReport* report, std::string* error) {
   *report = StereoReport{};
@@ -333,111 +462,17 @@ bool convert_asl(const std::string& asl_dir, const std::string& out_dir, const S
   }
   Eigen::Isometry3d frd_T_aslbody = Eigen::Isometry3d::Identity();
   frd_T_aslbody.linear() << 0, 0, 1, 0, 1, 0, -1, 0, 0;
-  const Eigen::Isometry3d frd_T_camera = frd_T_aslbody * aslbody_T_camera;
-
-  std::ofstream depth_list(out_dir + "/depth.txt"), left_list(out_dir + "/left.txt");
-  depth_list << "# depth by SGBM from " << asl_dir << " (zonemap-stereo)\n";
-  left_list << "# rectified left images\n";
-  for (const auto& [ns, path] : cam1.frames) report->cam1_without_cam0 += !cam0.frames.count(ns);
-  auto sgbm = make_sgbm(o);
-  std::vector<double> valid_shares, bm_shares, disagreements, lr, ms;
-  int index = 0;
-  for (const auto& [ns, left_path] : cam0.frames) {
-    const auto right = cam1.frames.find(ns);
-    if (right == cam1.frames.end()) {
-      ++report->cam0_without_cam1;
-      std::fprintf(stderr, "zonemap-stereo: %s: no cam1 image at the same time: skipped\n",
-                   left_path.c_str());
-      continue;
-    }
-    ++report->pairs;
-    const cv::Mat left_raw = cv::imread(left_path, cv::IMREAD_GRAYSCALE);
-    const cv::Mat right_raw = cv::imread(right->second, cv::IMREAD_GRAYSCALE);
-    if (left_raw.empty() || right_raw.empty() || left_raw.cols != cam0.width ||
-        left_raw.rows != cam0.height || right_raw.size() != left_raw.size()) {
-      ++report->unreadable;
-      std::fprintf(stderr, "zonemap-stereo: %s: unreadable or not %dx%d: pair skipped\n",
-                   (left_raw.empty() ? left_path : right->second).c_str(), cam0.width, cam0.height);
-      continue;
-    }
-    const auto start = std::chrono::steady_clock::now();
-    cv::Mat left, right_rect, disparity, depth;
-    cv::remap(left_raw, left, r.map0x, r.map0y, cv::INTER_LINEAR);
-    cv::remap(right_raw, right_rect, r.map1x, r.map1y, cv::INTER_LINEAR);
-    sgbm->compute(left, right_rect, disparity);
-    valid_shares.push_back(depth_from_disparity(disparity, r, o, &depth));
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                     .count());
-    if (o.reference_every > 0 && index % o.reference_every == 0) {
-      const ReferenceFigures ref = reference(left, right_rect, disparity, o);
-      bm_shares.push_back(ref.bm_valid_share);
-      disagreements.push_back(ref.disagreement_px);
-      lr.insert(lr.end(), ref.lr_differences.begin(), ref.lr_differences.end());
-    }
-    ++index;
-    const std::string name = std::to_string(ns) + ".png";
-    if (!cv::imwrite(out_dir + "/depth/" + name, depth) ||
-        !cv::imwrite(out_dir + "/left/" + name, left)) {
-      *error = out_dir + ": cannot write " + name;
-      return false;
-    }
-    depth_list << ns_to_seconds(ns) << " depth/" << name << "\n";
-    left_list << ns_to_seconds(ns) << " left/" << name << "\n";
-    ++report->written;
-  }
+  PairFigures figures;
+  if (!match_pairs(cam0, cam1, r, o, asl_dir, out_dir, report, &figures, error)) return false;
   if (report->written == 0) {
     *error = asl_dir + ": no stereo pair could be matched";
     return false;
   }
-  report->valid_share_median = median(valid_shares);
-  report->reference_valid_share_median = median(bm_shares);
-  report->reference_disagreement_px_median = median(disagreements);
-  report->ms_per_pair_median = median(ms);
-  if (!lr.empty()) {
-    const double m = median(lr);
-    std::vector<double> dev;
-    for (double d : lr) dev.push_back(std::abs(d - m));
-    report->sigma_px = 1.4826 * median(dev) / std::sqrt(2.0);
-  }
-
-  // The block matcher's disagreement, read as two independent matchers of equal
-  // precision: median |d1 - d2| = 0.6745 * sqrt(2) * sigma.
-  report->sigma_px_from_reference =
-      report->reference_disagreement_px_median / (0.6745 * std::sqrt(2.0));
-  // Eq. (1)'s sigma: the larger of the two measurements (left-right consistency
-  // shares the matcher's own biases and reads low), never below the 1/16 px step.
-  const double sigma = std::max({report->sigma_px, report->sigma_px_from_reference, 1.0 / 16.0});
-  const Eigen::Quaterniond q(frd_T_camera.linear());
-  const Eigen::Vector3d t = frd_T_camera.translation();
-  std::ofstream camera(out_dir + "/camera.yaml");
-  char buf[160];
-  camera << "# rectified left camera of " << asl_dir << " (zonemap-stereo)\n";
-  camera << "width: " << cam0.width << "\nheight: " << cam0.height << "\n";
-  std::snprintf(buf, sizeof(buf), "fx: %.4f\nfy: %.4f\ncx: %.4f\ncy: %.4f\n", r.f, r.f, r.cx, r.cy);
-  camera << buf;
-  std::snprintf(buf, sizeof(buf),
-                "baseline_m: %.6f\nmatch_sigma_px: %.3f   # measured: left-right consistency\n",
-                r.baseline_m, sigma);
-  camera << buf << "depth_scale: " << o.depth_scale << "\n";
-  std::snprintf(buf, sizeof(buf),
-                "body_T_camera: {t: [%.6f, %.6f, %.6f], q: [%.9f, %.9f, %.9f, %.9f]}\n", t.x(),
-                t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
-  camera << buf << "world_z_up: true\n";
-
-  std::ofstream json(out_dir + "/stereo.json");
-  std::snprintf(buf, sizeof(buf), "%.4f", report->valid_share_median);
-  json << "{\"pairs\": " << report->pairs << ", \"written\": " << report->written
-       << ", \"cam0_without_cam1\": " << report->cam0_without_cam1
-       << ", \"cam1_without_cam0\": " << report->cam1_without_cam0
-       << ", \"unreadable\": " << report->unreadable << ", \"poses\": " << report->poses
-       << ", \"poses_rejected\": " << report->poses_rejected << ",\n \"focal_px\": " << r.f
-       << ", \"baseline_m\": " << r.baseline_m << ", \"sigma_px_left_right\": " << report->sigma_px
-       << ", \"sigma_px_from_reference\": " << report->sigma_px_from_reference
-       << ", \"match_sigma_px\": " << sigma << ",\n \"valid_share_median\": " << buf
-       << ", \"reference_bm_valid_share_median\": " << report->reference_valid_share_median
-       << ", \"reference_disagreement_px_median\": " << report->reference_disagreement_px_median
-       << ",\n \"stereo_ms_per_pair_median\": " << report->ms_per_pair_median << "}\n";
-  return static_cast<bool>(camera) && static_cast<bool>(json);
+  const double sigma = summarise(figures, report);
+  const bool camera_ok = write_camera_yaml(out_dir + "/camera.yaml", asl_dir, cam0, r, sigma,
+                                           o.depth_scale, frd_T_aslbody * aslbody_T_camera);
+  const bool json_ok = write_stereo_json(out_dir + "/stereo.json", *report, r, sigma);
+  return camera_ok && json_ok;
 }
 
 }  // namespace zonemap::stereo

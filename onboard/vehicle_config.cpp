@@ -16,11 +16,6 @@ std::string relative_to(const std::string& file, const std::string& path) {
   return (std::filesystem::path(file).parent_path() / path).lexically_normal().string();
 }
 
-template <typename T>
-Reader into(T* target) {
-  return [target](const YAML::Node& node) { *target = node.as<T>(); };
-}
-
 Reader one_of(const std::string& path, const std::string& key,
               std::map<std::string, std::function<void()>> choices) {
   return [path, key, choices](const YAML::Node& node) {
@@ -43,123 +38,189 @@ Reader can_id(std::uint32_t* target) {
   };
 }
 
-}  // namespace
+using hal::into;
+using Frames = VehicleConfig::FrameSourceKind;
+using Poses = VehicleConfig::PoseSourceKind;
 
-static bool parse_vehicle_config(const YAML::Node& root, const std::string& path,
-                                 VehicleConfig* out, std::string* error) {
+Reader frames_section(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    hal::read_section(path, node, "frames",
+                      {{"source", one_of(path, "frames.source",
+                                         {{"replay", [c] { c->frames = Frames::kReplay; }},
+                                          {"v4l2", [c] { c->frames = Frames::kV4l2; }}})},
+                       {"sequence", into(&c->sequence_dir)},
+                       {"rate_hz", into(&c->replay_rate_hz)},
+                       {"device", into(&c->v4l2_device)},
+                       {"pixel_format", one_of(path, "frames.pixel_format",
+                                               {{"Y16", [c] { c->v4l2_format = "Y16"; }},
+                                                {"Z16", [c] { c->v4l2_format = "Z16"; }}})}});
+  };
+}
+
+// first_fix, or [lat, lon, height] of the local frame's origin.
+Reader can_origin(const std::string& path, can::InsCanConfig* profile) {
+  return [path, profile](const YAML::Node& node) {
+    if (node.IsScalar() && node.as<std::string>() == "first_fix") {
+      profile->has_origin = false;
+      return;
+    }
+    if (!node.IsSequence() || node.size() != 3) {
+      throw ParseError{where(path, node) + ": origin must be first_fix or [lat, lon, height]"};
+    }
+    profile->has_origin = true;
+    profile->origin = {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
+  };
+}
+
+Reader can_profile_keys(const std::string& path, can::InsCanConfig* p) {
+  return [path, p](const YAML::Node& node) {
+    hal::read_section(path, node, "poses.ids",
+                      {{"info", can_id(&p->id_info)},
+                       {"quat", can_id(&p->id_quat)},
+                       {"pos", can_id(&p->id_pos)},
+                       {"altitude", can_id(&p->id_altitude)},
+                       {"pos_acc", can_id(&p->id_pos_acc)},
+                       {"base", can_id(&p->base_id)}});
+  };
+}
+
+Reader poses_section(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    can::InsCanConfig* p = &c->can_profile;
+    hal::read_section(
+        path, node, "poses",
+        {{"source", one_of(path, "poses.source",
+                           {{"sequence", [c] { c->poses = Poses::kSequence; }},
+                            {"lcm", [c] { c->poses = Poses::kLcm; }},
+                            {"lcm_log", [c] { c->poses = Poses::kLcmLog; }},
+                            {"can", [c] { c->poses = Poses::kCan; }},
+                            {"candump", [c] { c->poses = Poses::kCandump; }}})},
+         {"lcm_url", into(&c->lcm_url)},
+         {"lcm_channel", into(&c->lcm_channel)},
+         {"log", into(&c->pose_log_path)},
+         {"can_interface", into(&c->can_interface)},
+         {"can_profile",
+          one_of(path, "poses.can_profile",
+                 {{"sbg-ecan", [p] { p->profile = can::InsCanProfile::kSbgEcan; }},
+                  {"zonemap-ins", [p] { p->profile = can::InsCanProfile::kZonemapIns; }}})},
+         {"byte_order", one_of(path, "poses.byte_order",
+                               {{"little", [p] { p->little_endian = true; }},
+                                {"big", [p] { p->little_endian = false; }}})},
+         {"extended_ids", into(&p->extended_ids)},
+         {"ids", can_profile_keys(path, p)},
+         {"origin", can_origin(path, p)},
+         {"time_source",
+          one_of(path, "poses.time_source",
+                 {{"receive", [p] { p->time_source = can::InsTimeSource::kReceive; }},
+                  {"ins", [p] { p->time_source = can::InsTimeSource::kIns; }}})},
+         {"time_offset_s", into(&c->time_offset_s)},
+         {"max_speed_mps", into(&c->gate.max_speed_mps)},
+         {"jump_margin_m", into(&c->gate.jump_margin_m)},
+         {"max_position_sigma_m", into(&c->gate.max_position_sigma_m)},
+         {"reanchor_after_s", into(&c->gate.reanchor_after_s)}});
+  };
+}
+
+// outputs.can, .lcm, .mavlink: each present section switches its link on.
+Reader can_output(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    c->can_output = true;
+    hal::read_section(path, node, "outputs.can",
+                      {{"interface", into(&c->can_output_interface)},
+                       {"base_id", can_id(&c->can_obstacles.base_id)},
+                       {"extended_ids", into(&c->can_obstacles.extended_ids)},
+                       {"rate_hz", into(&c->can_obstacles.rate_hz)},
+                       {"max_frames_per_s", into(&c->can_obstacles.max_frames_per_s)},
+                       {"include_ground", into(&c->can_obstacles.include_ground)}});
+  };
+}
+Reader lcm_output(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    c->lcm_output = true;
+    hal::read_section(path, node, "outputs.lcm",
+                      {{"url", into(&c->lcm.url)},
+                       {"map_channel", into(&c->lcm.map_channel)},
+                       {"distance_channel", into(&c->lcm.distance_channel)},
+                       {"health_channel", into(&c->lcm.health_channel)},
+                       {"rate_hz", into(&c->lcm.rate_hz)},
+                       {"max_boxes", into(&c->lcm.max_boxes)}});
+  };
+}
+Reader mavlink_output(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    c->mavlink_output = true;
+    hal::read_section(path, node, "outputs.mavlink",
+                      {{"host", into(&c->mavlink.host)},
+                       {"port", into(&c->mavlink.port)},
+                       {"rate_hz", into(&c->mavlink.rate_hz)},
+                       {"system_id", into(&c->mavlink.system_id)},
+                       {"component_id", into(&c->mavlink.component_id)},
+                       {"obstacles_3d", into(&c->mavlink.max_obstacles_3d)},
+                       {"stale_after_s", into(&c->mavlink.stale_after_s)}});
+  };
+}
+
+Reader outputs_section(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    hal::read_section(path, node, "outputs",
+                      {{"directory", into(&c->output_dir)},
+                       {"health_period_s", into(&c->health_period_s)},
+                       {"record",
+                        [path, c](const YAML::Node& record) {
+                          hal::read_section(path, record, "outputs.record",
+                                            {{"path", into(&c->record_path)},
+                                             {"depth_every", into(&c->record_depth_every)}});
+                        }},
+                       {"can", can_output(path, c)},
+                       {"lcm", lcm_output(path, c)},
+                       {"mavlink", mavlink_output(path, c)}});
+  };
+}
+
+// What the chosen sources and sinks need: empty when all is there.
+std::string missing_for_sources(const VehicleConfig& c) {
+  if (c.mapping_path.empty()) return "'mapping:' (the mapping configuration) is required";
+  if (c.frames == Frames::kReplay && c.sequence_dir.empty()) {
+    return "frames.source replay needs frames.sequence";
+  }
+  if (c.frames == Frames::kV4l2 && c.camera_path.empty()) {
+    return "frames.source v4l2 needs 'camera:' (camera.yaml)";
+  }
+  if ((c.poses == Poses::kLcmLog || c.poses == Poses::kCandump) && c.pose_log_path.empty()) {
+    return "poses.source lcm_log / candump needs poses.log";
+  }
+  if (c.poses == Poses::kSequence && c.frames != Frames::kReplay) {
+    return "poses.source sequence needs frames.source replay";
+  }
+  if (!(c.health_period_s > 0.0 && c.can_obstacles.rate_hz > 0.0 && c.lcm.rate_hz > 0.0 &&
+        c.mavlink.rate_hz > 0.0)) {
+    return "rates and periods must be positive";
+  }
+  if (c.record_depth_every < 0) return "outputs.record.depth_every must be >= 0";
+  if (c.mavlink_output) return mavlink::validate(c.mavlink);
+  return "";
+}
+
+// Paths in the file are relative to it.
+void resolve_paths(const std::string& path, VehicleConfig* c) {
+  for (std::string* p : {&c->mapping_path, &c->camera_path, &c->sequence_dir, &c->pose_log_path,
+                         &c->output_dir, &c->record_path}) {
+    *p = relative_to(path, *p);
+  }
+}
+
+bool parse_vehicle_config(const YAML::Node& root, const std::string& path, VehicleConfig* out,
+                          std::string* error) {
   VehicleConfig c;
   c.path = path;
   try {
-    auto section = [&](const std::string& name, std::map<std::string, Reader> readers) {
-      return [&path, name, readers](const YAML::Node& node) {
-        hal::read_section(path, node, name, readers);
-      };
-    };
-    auto origin = [&](const YAML::Node& node) {
-      if (node.IsScalar() && node.as<std::string>() == "first_fix") {
-        c.can_profile.has_origin = false;
-        return;
-      }
-      if (!node.IsSequence() || node.size() != 3) {
-        throw ParseError{where(path, node) + ": origin must be first_fix or [lat, lon, height]"};
-      }
-      c.can_profile.has_origin = true;
-      c.can_profile.origin = {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
-    };
-    hal::read_section(
-        path, root, "",
-        {{"mapping", into(&c.mapping_path)},
-         {"camera", into(&c.camera_path)},
-         {"live", into(&c.live)},
-         {"frames",
-          section("frames",
-                  {{"source", one_of(path, "frames.source",
-                                     {{"replay", [&] { c.frames = VehicleConfig::FrameSourceKind::kReplay; }},
-                                      {"v4l2", [&] { c.frames = VehicleConfig::FrameSourceKind::kV4l2; }}})},
-                   {"sequence", into(&c.sequence_dir)},
-                   {"rate_hz", into(&c.replay_rate_hz)},
-                   {"device", into(&c.v4l2_device)},
-                   {"pixel_format", one_of(path, "frames.pixel_format",
-                                           {{"Y16", [&] { c.v4l2_format = "Y16"; }},
-                                            {"Z16", [&] { c.v4l2_format = "Z16"; }}})}})},
-         {"poses",
-          section("poses",
-                  {{"source",
-                    one_of(path, "poses.source",
-                           {{"sequence", [&] { c.poses = VehicleConfig::PoseSourceKind::kSequence; }},
-                            {"lcm", [&] { c.poses = VehicleConfig::PoseSourceKind::kLcm; }},
-                            {"lcm_log", [&] { c.poses = VehicleConfig::PoseSourceKind::kLcmLog; }},
-                            {"can", [&] { c.poses = VehicleConfig::PoseSourceKind::kCan; }},
-                            {"candump", [&] { c.poses = VehicleConfig::PoseSourceKind::kCandump; }}})},
-                   {"lcm_url", into(&c.lcm_url)},
-                   {"lcm_channel", into(&c.lcm_channel)},
-                   {"log", into(&c.pose_log_path)},
-                   {"can_interface", into(&c.can_interface)},
-                   {"can_profile",
-                    one_of(path, "poses.can_profile",
-                           {{"sbg-ecan", [&] { c.can_profile.profile = can::InsCanProfile::kSbgEcan; }},
-                            {"zonemap-ins",
-                             [&] { c.can_profile.profile = can::InsCanProfile::kZonemapIns; }}})},
-                   {"byte_order", one_of(path, "poses.byte_order",
-                                         {{"little", [&] { c.can_profile.little_endian = true; }},
-                                          {"big", [&] { c.can_profile.little_endian = false; }}})},
-                   {"extended_ids", into(&c.can_profile.extended_ids)},
-                   {"ids", section("poses.ids", {{"info", can_id(&c.can_profile.id_info)},
-                                                 {"quat", can_id(&c.can_profile.id_quat)},
-                                                 {"pos", can_id(&c.can_profile.id_pos)},
-                                                 {"altitude", can_id(&c.can_profile.id_altitude)},
-                                                 {"pos_acc", can_id(&c.can_profile.id_pos_acc)},
-                                                 {"base", can_id(&c.can_profile.base_id)}})},
-                   {"origin", origin},
-                   {"time_source",
-                    one_of(path, "poses.time_source",
-                           {{"receive", [&] { c.can_profile.time_source = can::InsTimeSource::kReceive; }},
-                            {"ins", [&] { c.can_profile.time_source = can::InsTimeSource::kIns; }}})},
-                   {"time_offset_s", into(&c.time_offset_s)},
-                   {"max_speed_mps", into(&c.gate.max_speed_mps)},
-                   {"jump_margin_m", into(&c.gate.jump_margin_m)},
-                   {"max_position_sigma_m", into(&c.gate.max_position_sigma_m)},
-                   {"reanchor_after_s", into(&c.gate.reanchor_after_s)}})},
-         {"outputs",
-          section("outputs",
-                  {{"directory", into(&c.output_dir)},
-                   {"health_period_s", into(&c.health_period_s)},
-                   {"record", [&](const YAML::Node& node) {
-                      hal::read_section(path, node, "outputs.record",
-                                        {{"path", into(&c.record_path)},
-                                         {"depth_every", into(&c.record_depth_every)}});
-                    }},
-                   {"can", [&](const YAML::Node& node) {
-                      c.can_output = true;
-                      hal::read_section(path, node, "outputs.can",
-                                        {{"interface", into(&c.can_output_interface)},
-                                         {"base_id", can_id(&c.can_obstacles.base_id)},
-                                         {"extended_ids", into(&c.can_obstacles.extended_ids)},
-                                         {"rate_hz", into(&c.can_obstacles.rate_hz)},
-                                         {"max_frames_per_s", into(&c.can_obstacles.max_frames_per_s)},
-                                         {"include_ground", into(&c.can_obstacles.include_ground)}});
-                    }},
-                   {"lcm", [&](const YAML::Node& node) {
-                      c.lcm_output = true;
-                      hal::read_section(path, node, "outputs.lcm",
-                                        {{"url", into(&c.lcm.url)},
-                                         {"map_channel", into(&c.lcm.map_channel)},
-                                         {"distance_channel", into(&c.lcm.distance_channel)},
-                                         {"health_channel", into(&c.lcm.health_channel)},
-                                         {"rate_hz", into(&c.lcm.rate_hz)},
-                                         {"max_boxes", into(&c.lcm.max_boxes)}});
-                    }},
-                   {"mavlink", [&](const YAML::Node& node) {
-                      c.mavlink_output = true;
-                      hal::read_section(path, node, "outputs.mavlink",
-                                        {{"host", into(&c.mavlink.host)},
-                                         {"port", into(&c.mavlink.port)},
-                                         {"rate_hz", into(&c.mavlink.rate_hz)},
-                                         {"system_id", into(&c.mavlink.system_id)},
-                                         {"component_id", into(&c.mavlink.component_id)},
-                                         {"obstacles_3d", into(&c.mavlink.max_obstacles_3d)},
-                                         {"stale_after_s", into(&c.mavlink.stale_after_s)}});
-                    }}})}});
+    hal::read_section(path, root, "",
+                      {{"mapping", into(&c.mapping_path)},
+                       {"camera", into(&c.camera_path)},
+                       {"live", into(&c.live)},
+                       {"frames", frames_section(path, &c)},
+                       {"poses", poses_section(path, &c)},
+                       {"outputs", outputs_section(path, &c)}});
   } catch (const ParseError& e) {
     *error = e.message;
     return false;
@@ -167,51 +228,17 @@ static bool parse_vehicle_config(const YAML::Node& root, const std::string& path
     *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
     return false;
   }
-  // What must be there for the chosen sources.
-  const auto need = [&](bool ok, const char* what) {
-    if (!ok) *error = path + ": " + what;
-    return ok;
-  };
-  if (!need(!c.mapping_path.empty(), "'mapping:' (the mapping configuration) is required")) {
+  const std::string missing = missing_for_sources(c);
+  if (!missing.empty()) {
+    *error = path + ": " + missing;
     return false;
   }
-  if (c.frames == VehicleConfig::FrameSourceKind::kReplay &&
-      !need(!c.sequence_dir.empty(), "frames.source replay needs frames.sequence")) {
-    return false;
-  }
-  if (c.frames == VehicleConfig::FrameSourceKind::kV4l2 &&
-      !need(!c.camera_path.empty(), "frames.source v4l2 needs 'camera:' (camera.yaml)")) {
-    return false;
-  }
-  if ((c.poses == VehicleConfig::PoseSourceKind::kLcmLog ||
-       c.poses == VehicleConfig::PoseSourceKind::kCandump) &&
-      !need(!c.pose_log_path.empty(), "poses.source lcm_log / candump needs poses.log")) {
-    return false;
-  }
-  if (c.poses == VehicleConfig::PoseSourceKind::kSequence &&
-      !need(c.frames == VehicleConfig::FrameSourceKind::kReplay,
-            "poses.source sequence needs frames.source replay")) {
-    return false;
-  }
-  if (!need(c.health_period_s > 0.0 && c.can_obstacles.rate_hz > 0.0 && c.lcm.rate_hz > 0.0 &&
-                c.mavlink.rate_hz > 0.0,
-            "rates and periods must be positive")) {
-    return false;
-  }
-  if (!need(c.record_depth_every >= 0, "outputs.record.depth_every must be >= 0")) return false;
-  if (c.mavlink_output) {
-    const std::string why = mavlink::validate(c.mavlink);
-    if (!need(why.empty(), why.c_str())) return false;
-  }
-  c.mapping_path = relative_to(path, c.mapping_path);
-  c.camera_path = relative_to(path, c.camera_path);
-  c.sequence_dir = relative_to(path, c.sequence_dir);
-  c.pose_log_path = relative_to(path, c.pose_log_path);
-  c.output_dir = relative_to(path, c.output_dir);
-  c.record_path = relative_to(path, c.record_path);
+  resolve_paths(path, &c);
   *out = c;
   return true;
 }
+
+}  // namespace
 
 bool load_vehicle_config(const std::string& path, VehicleConfig* out, std::string* error) {
   YAML::Node root;

@@ -213,7 +213,7 @@ bool parse_vehicle_config(const YAML::Node& root, const std::string& path, Vehic
                           std::string* error) {
   VehicleConfig c;
   c.path = path;
-  try {
+  const bool read = hal::read_explained(path, error, [&] {
     hal::read_section(path, root, "",
                       {{"mapping", into(&c.mapping_path)},
                        {"camera", into(&c.camera_path)},
@@ -221,13 +221,8 @@ bool parse_vehicle_config(const YAML::Node& root, const std::string& path, Vehic
                        {"frames", frames_section(path, &c)},
                        {"poses", poses_section(path, &c)},
                        {"outputs", outputs_section(path, &c)}});
-  } catch (const ParseError& e) {
-    *error = e.message;
-    return false;
-  } catch (const YAML::Exception& e) {
-    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
-    return false;
-  }
+  });
+  if (!read) return false;
   const std::string missing = missing_for_sources(c);
   if (!missing.empty()) {
     *error = path + ": " + missing;

@@ -18,7 +18,7 @@ bool parse_pipeline_section(const YAML::Node& root, const std::string& path,
                             PipelineOptions* options, std::string* error) {
   PipelineOptions o = *options;
   if (root.IsMap() && root["pipeline"]) {
-    try {
+    const bool read = hal::read_explained(path, error, [&] {
       hal::read_section(path, root["pipeline"], "pipeline",
                         {{"frame_period_s", hal::into(&o.frame_period_s)},
                          {"pose_wait_s", hal::into(&o.pose_wait_s)},
@@ -34,13 +34,8 @@ bool parse_pipeline_section(const YAML::Node& root, const std::string& path,
                          {"cpu_output", hal::into(&o.cpu_output)},
                          {"cpu_extraction", hal::into(&o.cpu_extraction)},
                          {"cpu_ins", hal::into(&o.cpu_ins)}});
-    } catch (const hal::ParseError& e) {
-      *error = e.message;
-      return false;
-    } catch (const YAML::Exception& e) {
-      *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
-      return false;
-    }
+    });
+    if (!read) return false;
   }
   const std::string invalid = validate_pipeline_section(o);
   if (!invalid.empty()) {

@@ -12,7 +12,7 @@ namespace zonemap::hal {
 static bool parse_map_config(const YAML::Node& root, const std::string& path, MapConfig* config,
                              std::string* error) {
   MapConfig c;
-  try {
+  const bool read = read_explained(path, error, [&] {
     auto zone_cells = [&](const YAML::Node& node) {
       if (!node.IsSequence() || node.size() != 3) {
         throw ParseError{where(path, node) + ": map.zone_cells must be [nx, ny, nz]"};
@@ -76,13 +76,8 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                        {"thickness_m", into(&c.features.ground_thickness_m)},
                                        {"window_m", into(&c.features.ground_window_m)},
                                        {"min_coverage", into(&c.features.ground_min_coverage)}})}});
-  } catch (const ParseError& e) {
-    *error = e.message;
-    return false;
-  } catch (const YAML::Exception& e) {
-    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
-    return false;
-  }
+  });
+  if (!read) return false;
   const std::string invalid = validate(c);
   if (!invalid.empty()) {
     *error = path + ": " + invalid;
@@ -115,7 +110,7 @@ static bool parse_camera_yaml(const YAML::Node& root, const std::string& path, C
                               std::string* error) {
   CameraModel k;
   bool seen_width = false, seen_height = false, seen_fx = false, seen_fy = false;
-  try {
+  const bool read = read_explained(path, error, [&] {
     auto body_pose = [&](const YAML::Node& node) {
       std::vector<double> t{0, 0, 0};
       std::vector<double> q{0, 0, 0, 1};
@@ -150,13 +145,8 @@ static bool parse_camera_yaml(const YAML::Node& root, const std::string& path, C
                   {"depth_scale", into(&k.depth_scale)},
                   {"world_z_up", into(&k.world_z_up)},
                   {"body_T_camera", body_pose}});
-  } catch (const ParseError& e) {
-    *error = e.message;
-    return false;
-  } catch (const YAML::Exception& e) {
-    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
-    return false;
-  }
+  });
+  if (!read) return false;
   if (!seen_width || !seen_height || !seen_fx || !seen_fy) {
     *error = path + ": width, height, fx and fy are required";
     return false;

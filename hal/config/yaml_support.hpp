@@ -68,6 +68,22 @@ Reader one_of(const std::string& path, const std::string& key, E* target,
   };
 }
 
+// Runs `read`, which reports a problem by throwing ParseError (already naming
+// file and line) or YAML::Exception (a wrong type, a bad document): false with
+// the message in *error then.
+template <typename Read>
+bool read_explained(const std::string& path, std::string* error, Read read) {
+  try {
+    read();
+    return true;
+  } catch (const ParseError& e) {
+    *error = e.message;
+  } catch (const YAML::Exception& e) {
+    *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+  }
+  return false;
+}
+
 inline bool load_file(const std::string& path, YAML::Node* root, std::string* error) {
   try {
     *root = YAML::LoadFile(path);

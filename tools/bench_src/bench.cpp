@@ -3,6 +3,8 @@
 //                                      reference paths) vs OctoMap when built with
 //                                      it, per resolution; scaling with image size
 //                                      and d_max
+//   zonemap-bench --indoor [--frames N]  only the indoor regime (fine cells, d_max 4 m:
+//                                      the Kinect frames of ../shared/data, a room)
 //   zonemap-bench --micro [gbench args]  Google Benchmark micro benchmarks per stage
 //   zonemap-bench --projective CELL [--frames N] [--repeat R] [--full-extent]
 //                                      only the projective path at one cell size, R
@@ -22,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "hal/replay/sequence.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/mapper.hpp"
@@ -82,6 +85,91 @@ MapConfig config_for(double cell, double d_max, MapConfig::Integration integrati
   c.d_max_m = d_max;
   c.integration = integration;
   return c;
+}
+
+// --- the indoor regime: fine cells over a few metres ------------------------------
+
+// config/indoor-kinect.yaml's geometry at `cell`: d 0.5..4 m, no sky, the
+// environment 6.4 x 6.4 x 3.2 m at 4 cm; at 2 cm the build maximum of cells per
+// zone (256 x 256 x 64: 5.1 x 5.1 x 1.3 m).
+MapConfig indoor_config(double cell, MapConfig::Integration integration) {
+  MapConfig c;
+  c.cell_size_m = cell;
+  c.zone_cells = cell >= 0.04 ? std::array<int, 3>{160, 160, 80} : std::array<int, 3>{256, 256, 64};
+  c.d_min_m = 0.5;
+  c.d_max_m = 4.0;
+  c.sky.enabled = false;
+  c.integration = integration;
+  return c;
+}
+
+// The real Kinect v1 frames (7-Scenes redkitchen, ../shared/data) when present.
+bool load_kinect_frames(const std::string& dir, int count, Frames* f, std::string* why) {
+  replay::ReplaySequence sequence;
+  if (!sequence.open(dir, "", indoor_config(0.04, MapConfig::Integration::kProjective), why)) {
+    return false;
+  }
+  f->camera = sequence.camera();
+  hal::CameraFrame frame = sequence.make_frame();
+  const std::size_t n = sequence.frame_count();
+  for (int i = 0; i < count && n > 0; ++i) {
+    const std::size_t k = static_cast<std::size_t>(i) * n / static_cast<std::size_t>(count);
+    Eigen::Isometry3d pose;
+    if (!sequence.read(k, &frame, why) ||
+        sequence.poses().lookup(frame.time_s, &pose) == PoseLookup::kNoPose) {
+      continue;
+    }
+    f->poses.push_back(pose);
+    f->depth.push_back(frame.depth);
+    f->left.emplace_back();  // no left image: DepthFrameView gets none
+  }
+  return !f->poses.empty();
+}
+
+// A generated room (always there): 6 x 5 x 2.6 m with a table, a shelf, a
+// cabinet, a lamp and a person, walked through at 1.4 m by a Kinect-like camera
+// (640x480, f 585 px) turning as it goes.
+Frames make_room_frames(int count) {
+  sim::Scene room;
+  const auto box = [&](double x0, double y0, double z0, double x1, double y1, double z1) {
+    room.boxes.push_back({"", {x0, y0, z0}, {x1, y1, z1}});
+  };
+  box(-3.0, -2.5, 0.0, 3.0, -2.4, 2.6);  // walls
+  box(-3.0, 2.4, 0.0, 3.0, 2.5, 2.6);
+  box(-3.0, -2.5, 0.0, -2.9, 2.5, 2.6);
+  box(2.9, -2.5, 0.0, 3.0, 2.5, 2.6);
+  box(-3.0, -2.5, 2.6, 3.0, 2.5, 2.7);   // ceiling
+  box(0.5, -0.5, 0.72, 1.7, 0.4, 0.76);  // table top and legs
+  for (const double x : {0.55, 1.62})
+    for (const double y : {-0.45, 0.32}) box(x, y, 0.0, x + 0.05, y + 0.05, 0.72);
+  box(-2.8, -1.5, 0.0, -2.4, 0.5, 1.9);                          // shelf
+  box(1.8, 1.6, 0.0, 2.8, 2.3, 0.9);                             // cabinet
+  room.cylinders.push_back({"", {-1.5, 1.5}, 0.12, 0.0, 1.6});   // lamp
+  room.cylinders.push_back({"", {1.0, -1.6}, 0.25, 0.0, 1.75});  // person
+  Frames f;
+  f.camera.width = 640;
+  f.camera.height = 480;
+  f.camera.fx = f.camera.fy = 585.0;
+  f.camera.cx = 320.0;
+  f.camera.cy = 240.0;
+  f.camera.baseline_m = 0.075;
+  f.camera.match_sigma_px = 0.5;
+  f.camera.depth_scale = 1000.0;
+  sim::RenderOptions options;
+  options.max_range_m = 8.0;
+  options.noise_sigma_px = 0.25;
+  sim::Rng rng(11);
+  const std::size_t pixels = static_cast<std::size_t>(f.camera.width) * f.camera.height;
+  for (int i = 0; i < count; ++i) {
+    const double t = static_cast<double>(i) / static_cast<double>(std::max(1, count - 1));
+    const Eigen::Vector3d at(-1.6 + 2.6 * t, -0.9 + 1.4 * std::sin(3.0 * t), 1.4);
+    f.poses.push_back(sim::look_pose(at, 0.4 + 2.4 * t, 0.3));
+    f.depth.emplace_back(pixels);
+    f.left.emplace_back(pixels);
+    sim::render(room, f.camera, f.poses.back(), options, rng, f.depth.back().data(),
+                f.left.back().data());
+  }
+  return f;
 }
 
 // Instructions retired in user space by this thread, from the kernel's
@@ -185,8 +273,8 @@ struct Agreement {
   long long touched = 0, same_sign = 0, occupied = 0, occupied_missed = 0, free_without_ray = 0;
 };
 
-Agreement agreement(const Frames& f, double cell) {
-  MapConfig config = config_for(cell, 50.0, MapConfig::Integration::kReference);
+Agreement agreement(const Frames& f, MapConfig config) {
+  config.integration = MapConfig::Integration::kReference;
   config.blur_radius = 0;
   Mapper reference(config, f.camera);
   config.integration = MapConfig::Integration::kProjective;
@@ -213,7 +301,7 @@ Agreement agreement(const Frames& f, double cell) {
 }
 
 #ifdef ZONEMAP_HAVE_OCTOMAP
-Timing time_octomap(const Frames& f, double cell, double d_max, std::size_t frames) {
+Timing time_octomap(const Frames& f, double cell, double d_min, double d_max, std::size_t frames) {
   octomap::OcTree tree(cell);
   std::vector<double> ms;
   for (std::size_t i = 0; i < std::min(frames, f.poses.size()); ++i) {
@@ -224,7 +312,7 @@ Timing time_octomap(const Frames& f, double cell, double d_max, std::size_t fram
         const std::uint16_t raw = f.depth[i][static_cast<std::size_t>(v) * k.width + u];
         if (raw == 0) continue;
         const double d = raw / k.depth_scale;
-        if (d < 8.0) continue;
+        if (d < d_min) continue;
         const Eigen::Vector3d p =
             f.poses[i] * Eigen::Vector3d(d * (u - k.cx) / k.fx, d * (v - k.cy) / k.fy, d);
         cloud.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
@@ -248,6 +336,66 @@ std::string minstr_text(const Timing& t) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.1f", t.median_minstr);
   return text;
+}
+
+// One indoor row: the projective path (and the reference at 4 cm) against OctoMap
+// on the same frames, then the agreement with the reference.
+void indoor_row(const char* name, const Frames& f, double cell) {
+  const Timing fast = time_zonemap(f, indoor_config(cell, MapConfig::Integration::kProjective));
+  char ref_text[64] = "-";
+  if (cell >= 0.04) {
+    const Timing ref = time_zonemap(f, indoor_config(cell, MapConfig::Integration::kReference));
+    std::snprintf(ref_text, sizeof(ref_text), "%.1f / %.1f", ref.median_ms, ref.p99_ms);
+  }
+  char octo_text[64] = "not built";
+  char ratio_text[32] = "-";
+#ifdef ZONEMAP_HAVE_OCTOMAP
+  const Timing octo = time_octomap(f, cell, 0.5, 4.0, f.poses.size());
+  std::snprintf(octo_text, sizeof(octo_text), "%.1f / %.1f", octo.median_ms, octo.p99_ms);
+  std::snprintf(ratio_text, sizeof(ratio_text), "%.2fx", octo.median_ms / fast.median_ms);
+#endif
+  char fast_text[64];
+  std::snprintf(fast_text, sizeof(fast_text), "%.1f / %.1f", fast.median_ms, fast.p99_ms);
+  std::printf("%-18s %-5.2f %-18s %-18s %-18s %-8s %-12.0f %-8s %.0f / %.0f / %.0f\n", name, cell,
+              fast_text, ref_text, octo_text, ratio_text, fast.cells_per_frame,
+              minstr_text(fast).c_str(), fast.block_free_per_frame, fast.exact_cells_per_frame,
+              fast.exact_rays_per_frame);
+}
+
+void indoor_agreement(const char* name, const Frames& f, double cell) {
+  const Agreement a = agreement(f, indoor_config(cell, MapConfig::Integration::kReference));
+  std::printf(
+      "%s %.2f m: same sign on %.3f%% of %lld cells either touches; occupied in the reference "
+      "%lld, missed %lld; free where the reference has no ray %lld\n",
+      name, cell, 100.0 * static_cast<double>(a.same_sign) / static_cast<double>(a.touched),
+      a.touched, a.occupied, a.occupied_missed, a.free_without_ray);
+}
+
+// Fine cells over a few metres (handheld, indoor, close-range flight): the real
+// Kinect frames when ../shared/data has them, and a generated room always.
+void indoor_comparison(int frame_count) {
+  std::printf(
+      "\nindoor: 640x480, d 0.5-4 m, no sky; environment 6.4 x 6.4 x 3.2 m at 4 cm, 5.1 x 5.1 x "
+      "1.3 m at 2 cm; %d frames\n",
+      frame_count);
+  std::printf("%-18s %-5s %-18s %-18s %-18s %-8s %-12s %-8s %s\n", "frames", "cell",
+              "projective ms", "reference ms", "octomap 1.9.7 ms", "ratio", "cells/frame",
+              "M instr", "quick-free / exact cells / rays");
+  std::vector<std::pair<const char*, Frames>> sets;
+  Frames kinect;
+  std::string why;
+  if (load_kinect_frames(std::string(ZONEMAP_SHARED_DATA_DIR) + "/redkitchen-0000-0059",
+                         frame_count, &kinect, &why)) {
+    sets.emplace_back("kinect redkitchen", std::move(kinect));
+  } else {
+    std::printf("(no Kinect frames: %s)\n", why.c_str());
+  }
+  sets.emplace_back("generated room", make_room_frames(frame_count));
+  for (const auto& [name, frames] : sets) {
+    for (const double cell : {0.04, 0.02}) indoor_row(name, frames, cell);
+  }
+  std::printf("ratio: OctoMap's median over the projective path's (above 1: zonemap faster)\n");
+  for (const auto& [name, frames] : sets) indoor_agreement(name, frames, 0.04);
 }
 
 void comparison(int frame_count) {
@@ -287,7 +435,8 @@ void comparison(int frame_count) {
     // OctoMap has no environment: one figure per resolution, the full range.
     static Timing octo;
     if (!full_extent)
-      octo = time_octomap(f640, cell, 50.0, cell < 0.5 ? 3 : static_cast<std::size_t>(frame_count));
+      octo = time_octomap(f640, cell, 8.0, 50.0,
+                          cell < 0.5 ? 3 : static_cast<std::size_t>(frame_count));
     std::snprintf(octo_text, sizeof(octo_text), "%.1f / %.1f", octo.median_ms, octo.p99_ms);
     std::snprintf(ratio_text, sizeof(ratio_text), "%.1fx", octo.median_ms / fast.median_ms);
 #endif
@@ -305,13 +454,14 @@ void comparison(int frame_count) {
       "0.5 m\n");
   std::printf("\nagreement of the projective path with the reference, same frames, as drawn:\n");
   for (const double cell : {1.0, 0.5}) {
-    const Agreement a = agreement(f640, cell);
+    const Agreement a = agreement(f640, config_for(cell, 50.0, MapConfig::Integration::kReference));
     std::printf(
         "%.2f m: same sign on %.3f%% of %lld cells either touches; occupied in the reference "
         "%lld, missed %lld; free where the reference has no ray %lld\n",
         cell, 100.0 * static_cast<double>(a.same_sign) / static_cast<double>(a.touched), a.touched,
         a.occupied, a.occupied_missed, a.free_without_ray);
   }
+  indoor_comparison(frame_count);
   std::printf(
       "\nscaling (projective, 0.5 m cells): image size at d_max 50 m, then d_max at 640x480\n");
   std::printf("%-18s %-16s %-14s %-8s\n", "case", "ms median / p99", "cells/frame", "M instr");
@@ -436,12 +586,14 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
       std::fputs(
-          "usage: zonemap-bench [--frames N] [--full-extent] [--projective CELL_M [--repeat N]]\n"
+          "usage: zonemap-bench [--frames N] [--full-extent] [--indoor] [--projective CELL_M "
+          "[--repeat N]]\n"
           "       zonemap-bench --micro [Google Benchmark flags]\n"
           "  (no option)          the table: projective and reference paths against OctoMap when\n"
           "                       built with it, per cell size, agreement, scaling, replays\n"
           "  --frames N           frames per case (default 12)\n"
           "  --full-extent        0.25 m over the whole 80 x 80 x 40 m environment too\n"
+          "  --indoor             only the indoor regime (Kinect frames, generated room)\n"
           "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind)\n"
           "  --repeat N           passes over the same frames with --projective\n"
           "  --micro              the per-stage micro benchmarks\n",
@@ -459,9 +611,11 @@ int main(int argc, char** argv) {
   int frames = 12;
   int repeat = 1;
   bool full_extent = false;
+  bool indoor_only = false;
   double only_cell = 0.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--full-extent") == 0) full_extent = true;
+    if (std::strcmp(argv[i], "--indoor") == 0) indoor_only = true;
     if (i + 1 >= argc) continue;
     if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--projective") == 0) only_cell = std::atof(argv[i + 1]);
@@ -485,6 +639,10 @@ int main(int argc, char** argv) {
         only_cell, t.median_ms, t.p99_ms, minstr_text(t).c_str(), t.cells_per_frame,
         t.block_free_per_frame, t.hidden_per_frame, t.exact_cells_per_frame,
         t.exact_rays_per_frame);
+    return 0;
+  }
+  if (indoor_only) {
+    indoor_comparison(frames);
     return 0;
   }
   comparison(frames);

@@ -54,13 +54,13 @@ std::string validate_pipeline_section(const PipelineOptions& o) {
     return "pipeline.frame_period_s > 0, pipeline.pose_wait_s in [0, 1], "
            "pipeline.publish_every_frames >= 1";
   }
-  for (int priority : {o.priority_acquisition, o.priority_mapping, o.priority_output,
-                       o.priority_extraction, o.priority_ins}) {
-    if (!priority_ok(priority))
-      return "pipeline priorities must be in [0, 99] and cpus in [-1, 1023]";
-  }
-  for (int cpu : {o.cpu_acquisition, o.cpu_mapping, o.cpu_output, o.cpu_extraction, o.cpu_ins}) {
-    if (!cpu_ok(cpu)) return "pipeline priorities must be in [0, 99] and cpus in [-1, 1023]";
+  const bool priorities_ok = priority_ok(o.priority_acquisition) &&
+                             priority_ok(o.priority_mapping) && priority_ok(o.priority_output) &&
+                             priority_ok(o.priority_extraction) && priority_ok(o.priority_ins);
+  const bool cpus_ok = cpu_ok(o.cpu_acquisition) && cpu_ok(o.cpu_mapping) && cpu_ok(o.cpu_output) &&
+                       cpu_ok(o.cpu_extraction) && cpu_ok(o.cpu_ins);
+  if (!priorities_ok || !cpus_ok) {
+    return "pipeline priorities must be in [0, 99] and cpus in [-1, 1023]";
   }
   return "";
 }

@@ -24,6 +24,32 @@ std::vector<TimedPose> straight(const Eigen::Vector3d& a, const Eigen::Vector3d&
   return out;
 }
 
+// Terrain rising (or falling) 8-14% from x = 30 m on, with two poles, a hut and a
+// wall standing on it, each set into the slope where it stands.
+void terrain_scene(bool rises, std::uint64_t seed, Scenario* s) {
+  Rng rng(seed);
+  s->description = rises ? "terrain rising ahead with two poles, a hut and a wall on it, at 20 m"
+                         : "terrain falling ahead with two poles, a hut and a wall on it, at 20 m";
+  s->config = "config/paper-flight2.yaml";
+  s->scene.slope = (rises ? 1.0 : -1.0) * (0.08 + 0.06 * rng.uniform());
+  s->scene.slope_start_x = 30.0;
+  const Scene& ground = s->scene;
+  const double poles_x = 48.0 + 4.0 * rng.uniform();
+  for (const double y : {-4.0, 4.0}) {
+    const double base = ground.ground_height(poles_x);
+    s->scene.cylinders.push_back(
+        {y < 0 ? "pole_a" : "pole_b", Eigen::Vector2d(poles_x, y), 0.3, base, base + 6.0});
+  }
+  const double hut_x = 56.0 + 4.0 * rng.uniform();
+  const double hut_base = std::min(ground.ground_height(hut_x), ground.ground_height(hut_x + 4.0));
+  s->scene.boxes.push_back({"hut", Eigen::Vector3d(hut_x, 6.0, hut_base),
+                            Eigen::Vector3d(hut_x + 4.0, 10.0, hut_base + 3.5)});
+  const double wall_x = 64.0 + 4.0 * rng.uniform();
+  const double wall_base = ground.ground_height(wall_x);
+  s->scene.boxes.push_back({"wall", Eigen::Vector3d(wall_x, -14.0, wall_base - 0.1),
+                            Eigen::Vector3d(wall_x + 0.5, -4.0, wall_base + 2.5)});
+}
+
 }  // namespace
 
 CameraModel paper_camera(int width) {
@@ -41,8 +67,9 @@ CameraModel paper_camera(int width) {
 }
 
 std::vector<std::string> scenario_names() {
-  return {"bushes",         "treeline", "posts-through", "posts-around", "out-and-back",
-          "treeline-dense", "hedge",    "posts-high",    "crossing-car", "parked-car"};
+  return {"bushes",         "treeline",     "posts-through", "posts-around", "out-and-back",
+          "treeline-dense", "hedge",        "hedge-beside",  "posts-high",   "crossing-car",
+          "parked-car",     "terrain-rise", "terrain-fall"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -115,22 +142,31 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     }
     const double altitude = 15.0 + 10.0 * rng.uniform();
     s->trajectory = straight({0, 0, altitude}, {62, 0, altitude}, 5.0, 20 * kDeg, rate);
-  } else if (name == "hedge") {
-    // Bushes 2-3 m tall with 1.4 m gaps and a small aircraft, flown towards at 10 m.
-    s->description = "a hedge of bushes with gaps and a small aircraft, flown towards at 10 m";
+  } else if (name == "hedge" || name == "hedge-beside") {
+    // Bushes 2-3 m tall with 1.4 m gaps and a small aircraft at 10 m. hedge: the row
+    // stands across the track and is flown towards, so its gaps are seen along;
+    // hedge-beside: the row runs beside the track 14 m off it, where no view of the
+    // paper's camera (25.5 deg half field of view) ever looks through a gap.
+    const bool beside = name == "hedge-beside";
+    s->description = beside ? "a hedge of bushes with gaps beside the track, flown past at 10 m"
+                            : "a hedge of bushes with gaps across the track, flown towards at 10 m";
     s->config = "config/paper-flight2.yaml";
     Rng rng(options.seed);
-    double x = 30.0;
+    double along = beside ? 30.0 : -25.0;
     for (int i = 0; i < 14; ++i) {
       const double width = 1.5 + 1.5 * rng.uniform();
       const double height = 2.0 + rng.uniform();
-      s->scene.boxes.push_back({"bush_" + std::to_string(i + 1), Eigen::Vector3d(x, 14.0, 0.0),
-                                Eigen::Vector3d(x + width, 16.5, height)});
-      x += width + 1.4;
+      const Eigen::Vector3d lo =
+          beside ? Eigen::Vector3d(along, 14.0, 0.0) : Eigen::Vector3d(60.0, along, 0.0);
+      const Eigen::Vector3d hi = beside ? Eigen::Vector3d(along + width, 16.5, height)
+                                        : Eigen::Vector3d(62.5, along + width, height);
+      s->scene.boxes.push_back({"bush_" + std::to_string(i + 1), lo, hi});
+      along += width + 1.4;
     }
-    s->scene.boxes.push_back({"aircraft_fuselage", Eigen::Vector3d(56.0, -13.0, 0.0),
-                              Eigen::Vector3d(64.0, -11.0, 2.0)});
-    s->trajectory = straight({0, 0, 10.0}, {70, 0, 10.0}, 5.0, 15 * kDeg, rate);
+    s->scene.boxes.push_back({"aircraft_fuselage",
+                              Eigen::Vector3d(beside ? 56.0 : 40.0, -13.0, 0.0),
+                              Eigen::Vector3d(beside ? 64.0 : 48.0, -11.0, 2.0)});
+    s->trajectory = straight({0, 0, 10.0}, {beside ? 70.0 : 52.0, 0, 10.0}, 5.0, 15 * kDeg, rate);
   } else if (name == "posts-high") {
     // The paper's posts flown through at 8 m: a centred environment of 10 m never
     // reaches the lower 3 m of them.
@@ -177,10 +213,15 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
       p.time_s += t_turn;
       s->trajectory.push_back(p);
     }
+  } else if (name == "terrain-rise" || name == "terrain-fall") {
+    terrain_scene(name == "terrain-rise", options.seed, s);
+    s->trajectory = straight({0, 0, 18.0}, {58, 0, 18.0}, 5.0, 20 * kDeg, rate);
   } else {
-    *error = "unknown scenario '" + name +
-             "' (bushes, treeline, posts-through, posts-around, out-and-back, treeline-dense, "
-             "hedge, posts-high, crossing-car, parked-car)";
+    *error = "unknown scenario '" + name + "' (";
+    for (const std::string& known : scenario_names()) {
+      *error += (known == scenario_names().front() ? "" : ", ") + known;
+    }
+    *error += ")";
     return false;
   }
   return true;

@@ -71,6 +71,25 @@ double texture(const Eigen::Vector3d& p) {
   return static_cast<double>(h >> 11) / static_cast<double>(1ULL << 53);
 }
 
+constexpr double kNoHit = std::numeric_limits<double>::infinity();
+
+// The ground is two planes: flat up to slope_start_x, inclined beyond; a ray hits
+// each only on its own side of the crease.
+double hit_ground(const Scene& scene, const Eigen::Vector3d& o, const Eigen::Vector3d& w) {
+  double best = kNoHit;
+  if (w.z() < -1e-12) {
+    const double t = (scene.ground_z - o.z()) / w.z();
+    if (t > 0.0 && (scene.slope == 0.0 || o.x() + t * w.x() <= scene.slope_start_x)) best = t;
+  }
+  const double approach = w.z() - scene.slope * w.x();  // < 0: the ray nears the incline
+  if (scene.slope != 0.0 && approach < -1e-12) {
+    const double incline_at_o = scene.ground_z + scene.slope * (o.x() - scene.slope_start_x);
+    const double t = (incline_at_o - o.z()) / approach;
+    if (t > 0.0 && o.x() + t * w.x() >= scene.slope_start_x) best = std::min(best, t);
+  }
+  return best;
+}
+
 }  // namespace
 
 std::uint64_t Rng::next() {
@@ -108,11 +127,7 @@ double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Is
   const Eigen::Vector3d o = pose.translation();
   const Eigen::Vector3d w = pose.linear() * Eigen::Vector3d((u - camera.cx) / camera.fx,
                                                             (v - camera.cy) / camera.fy, 1.0);
-  double best = std::numeric_limits<double>::infinity();
-  if (scene.has_ground && w.z() < -1e-12) {
-    const double t = (scene.ground_z - o.z()) / w.z();
-    if (t > 0.0) best = t;
-  }
+  double best = scene.has_ground ? hit_ground(scene, o, w) : kNoHit;
   int hit_object = -1;  // the ground
   const int cylinders = static_cast<int>(scene.cylinders.size());
   for (int k = 0; k < cylinders; ++k) {
@@ -199,8 +214,12 @@ bool write_objects_yaml(const std::string& path, const Scene& scene,
     *error = path + ": cannot create";
     return false;
   }
-  out << "# ground truth obstacles (world frame, metres); ground plane z = " << scene.ground_z
-      << "\nobjects:\n";
+  out << "# ground truth obstacles (world frame, metres); ground plane z = " << scene.ground_z;
+  if (scene.slope != 0.0) {
+    out << ", inclined by " << scene.slope
+        << " (rise per metre of x) from x = " << scene.slope_start_x;
+  }
+  out << "\nobjects:\n";
   char line[256];
   for (const Cylinder& c : scene.cylinders) {
     std::snprintf(

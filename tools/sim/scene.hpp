@@ -34,6 +34,14 @@ struct Cylinder {
 struct Scene {
   bool has_ground = true;
   double ground_z = 0.0;
+  // Terrain that rises (slope > 0) or falls along +x from slope_start_x on: the
+  // ground is flat at ground_z before it and ground_z + slope (x - slope_start_x)
+  // beyond (12% = 0.12).
+  double slope = 0.0;
+  double slope_start_x = 0.0;
+  double ground_height(double x) const {
+    return ground_z + (x > slope_start_x ? slope * (x - slope_start_x) : 0.0);
+  }
   std::vector<Box> boxes;
   std::vector<Cylinder> cylinders;
   // The scene at time t: each moving box moved along its velocity.

@@ -66,6 +66,13 @@ std::string validate(const MapConfig& c) {
   } else if (!(c.features.ground_thickness_m >= 0.0) || !(c.features.ground_window_m >= 0.0) ||
              !(c.features.ground_min_coverage >= 0.0) || c.features.ground_min_coverage > 1.0) {
     why << "ground.thickness_m and ground.window_m must be >= 0, ground.min_coverage in [0, 1]";
+  } else if (!(c.features.ground_band_percentile >= 0.0) ||
+             !(c.features.ground_band_percentile < 1.0) ||
+             (c.features.ground_band_percentile > 0.0 &&
+              (!(c.features.ground_max_thickness_m >= c.features.ground_thickness_m) ||
+               c.features.ground_max_thickness_m > kMaxGroundBandCells * c.cell_size_m))) {
+    why << "ground.band_percentile must be in [0, 1), ground.max_thickness_m in [thickness_m, "
+        << kMaxGroundBandCells << " cells]";
   }
   return why.str();
 }

@@ -7,6 +7,8 @@ namespace zonemap {
 namespace {
 
 constexpr std::int16_t kNoHeight = -1;
+// A measured band's run tops scatter about its quantile by about a cell.
+constexpr int kBandScatterCells = 1;
 
 std::int64_t overlap_volume(const CellIndex& a0, const CellIndex& a1, const CellIndex& b0,
                             const CellIndex& b1) {
@@ -14,6 +16,20 @@ std::int64_t overlap_volume(const CellIndex& a0, const CellIndex& a1, const Cell
   const std::int64_t dy = std::min(a1.y, b1.y) - std::max(a0.y, b0.y) + 1;
   const std::int64_t dz = std::min(a1.z, b1.z) - std::max(a0.z, b0.z) + 1;
   return dx > 0 && dy > 0 && dz > 0 ? dx * dy * dz : 0;
+}
+
+// Sum over the window [x0, x1] x [y0, y1] of a summed-area table with `stride`
+// entries per row (row and column 0 are zero).
+std::int32_t window_sum(const std::int32_t* table, std::size_t stride, int x0, int y0, int x1,
+                        int y1) {
+  return table[static_cast<std::size_t>(y1 + 1) * stride + x1 + 1] -
+         table[static_cast<std::size_t>(y0) * stride + x1 + 1] -
+         table[static_cast<std::size_t>(y1 + 1) * stride + x0] +
+         table[static_cast<std::size_t>(y0) * stride + x0];
+}
+
+std::size_t band_table_size(const MapConfig& config) {
+  return static_cast<std::size_t>(config.zone_cells[0] + 1) * (config.zone_cells[1] + 1);
 }
 
 std::uint32_t find_root(std::uint32_t* parent, std::uint32_t i) {
@@ -39,6 +55,10 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
           static_cast<int>(std::lround(config.features.ground_thickness_m / config.cell_size_m))),
       ground_window_cells_(static_cast<int>(
           std::lround(config.features.ground_window_m / config.cell_size_m / 2.0))),
+      ground_band_cells_(config.features.ground_band_percentile > 0.0
+                             ? static_cast<int>(std::lround(config.features.ground_max_thickness_m /
+                                                            config.cell_size_m))
+                             : 0),
       capacity_(static_cast<std::size_t>(config.features.capacity)),
       features_(new Feature[capacity_]()),
       shapes_(static_cast<std::size_t>(config.features.quadtree_groups),
@@ -48,6 +68,10 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       footprint_(new std::uint8_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       lowest_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      run_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      ground_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      band_tables_(new std::int32_t[band_table_size(config) *
+                                    static_cast<std::size_t>(ground_band_cells_ + 1)]()),
       column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
@@ -89,7 +113,10 @@ std::size_t FeatureMap::reserved_bytes() const {
          (cells + 63) / 64 * 8 + cells * sizeof(std::uint32_t) + columns * (1 + 3 * 2) +
          2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t) +
          (3 * kMaxCores + 1) * sizeof(std::size_t) + columns * sizeof(std::uint32_t) +
-         kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes();
+         kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes() +
+         columns * 2 * sizeof(std::int16_t) +
+         static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * (ground_band_cells_ + 1) *
+             sizeof(std::int32_t);
 }
 
 std::size_t FeatureMap::count(FeatureKind kind) const {
@@ -104,6 +131,7 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
   const std::size_t columns = static_cast<std::size_t>(nx) * ny;
   if (!config_.ground_enabled) {
     std::fill_n(terrain_.get(), columns, kNoHeight);
+    std::fill_n(ground_top_.get(), columns, kNoHeight);
     return;
   }
   // Per column: the lowest occupied cell, and whether any cell is known at all.
@@ -120,13 +148,20 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
       std::int16_t lowest = kNoHeight;
       const bool known = zone.column_known(x, y);  // any evidence, free or occupied
       for (int h = 0; known && h < nz; ++h) {
-        const int z = z_up_ ? h : nz - 1 - h;
-        if (zone.occupied(zone.index(x, y, z))) {
+        if (zone.occupied(zone.index(x, y, z_up_ ? h : nz - 1 - h))) {
           lowest = static_cast<std::int16_t>(h);
           break;
         }
       }
+      // The run rising from it, followed no farther than the band can reach.
+      int top = lowest;
+      const int run_end = std::min(nz - 1, lowest + ground_band_cells_);
+      while (lowest != kNoHeight && top < run_end &&
+             zone.occupied(zone.index(x, y, z_up_ ? top + 1 : nz - 2 - top))) {
+        ++top;
+      }
       lowest_[static_cast<std::size_t>(y) * nx + x] = lowest;
+      run_top_[static_cast<std::size_t>(y) * nx + x] = static_cast<std::int16_t>(top);
       covered_row += lowest != kNoHeight ? 1 : 0;
       observed_row += known ? 1 : 0;
       const std::size_t at = static_cast<std::size_t>(y + 1) * stride + x + 1;
@@ -145,14 +180,8 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
     for (int x = 0; x < nx; ++x) {
       const int x0 = std::max(0, x - r);
       const int x1 = std::min(nx - 1, x + r);
-      auto window_sum = [&](const std::int32_t* table) {
-        return table[static_cast<std::size_t>(y1 + 1) * stride + x1 + 1] -
-               table[static_cast<std::size_t>(y0) * stride + x1 + 1] -
-               table[static_cast<std::size_t>(y1 + 1) * stride + x0] +
-               table[static_cast<std::size_t>(y0) * stride + x0];
-      };
-      const std::int32_t covered = window_sum(coverage_.get());
-      const std::int32_t observed = window_sum(observed_.get());
+      const std::int32_t covered = window_sum(coverage_.get(), stride, x0, y0, x1, y1);
+      const std::int32_t observed = window_sum(observed_.get(), stride, x0, y0, x1, y1);
       std::int16_t& t = terrain_[static_cast<std::size_t>(y) * nx + x];
       if (covered < config_.ground_min_coverage * observed) t = kNoHeight;
     }
@@ -164,6 +193,74 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
   for (std::size_t c = 0; c < columns; ++c) {
     if (terrain_[c] == kNoHeight) terrain_[c] = lowest_[c];
   }
+  compute_ground_top();
+}
+
+void FeatureMap::compute_ground_top() {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const std::size_t columns = static_cast<std::size_t>(nx) * ny;
+  const int band = ground_band_cells_;
+  const std::size_t stride = static_cast<std::size_t>(nx + 1);
+  const std::size_t table = stride * static_cast<std::size_t>(ny + 1);
+  // One summed-area table per band height k: columns whose run reaches k cells
+  // above their terrain (clipped to the band; k = 0: every column with a run).
+  for (int k = 0; band > 0 && k <= band; ++k) {
+    std::int32_t* sat = band_tables_.get() + static_cast<std::size_t>(k) * table;
+    std::fill_n(sat, stride, 0);
+    for (int y = 0; y < ny; ++y) {
+      std::int32_t row = 0;
+      sat[static_cast<std::size_t>(y + 1) * stride] = 0;
+      for (int x = 0; x < nx; ++x) {
+        const std::size_t c = static_cast<std::size_t>(y) * nx + x;
+        const bool reaches = terrain_[c] != kNoHeight && run_top_[c] != kNoHeight &&
+                             std::min(run_top_[c] - terrain_[c], band) >= k;
+        row += reaches ? 1 : 0;
+        const std::size_t at = static_cast<std::size_t>(y + 1) * stride + x + 1;
+        sat[at] = sat[at - stride] + row;
+      }
+    }
+  }
+  for (std::size_t c = 0; c < columns; ++c) {
+    if (terrain_[c] == kNoHeight) {
+      ground_top_[c] = kNoHeight;
+      continue;
+    }
+    const int x = static_cast<int>(c % static_cast<std::size_t>(nx));
+    const int y = static_cast<int>(c / static_cast<std::size_t>(nx));
+    const int measured = band > 0 ? measured_band(x, y) : 0;
+    ground_top_[c] =
+        static_cast<std::int16_t>(terrain_[c] + std::max(ground_thickness_cells_, measured));
+  }
+}
+
+int FeatureMap::measured_band(int x, int y) const {
+  // A surface's band has runs of one height give or take a cell; where they
+  // spread wider, objects (or their smear) stand in the window and its runs say
+  // nothing of the ground: the thickness alone holds there.
+  const double p = config_.ground_band_percentile;
+  const int low = band_quantile(x, y, p);
+  const int high = band_quantile(x, y, 1.0 - p);
+  return high - low <= kBandScatterCells ? high + kBandScatterCells : 0;
+}
+
+int FeatureMap::band_quantile(int x, int y, double fraction) const {
+  const int r = ground_window_cells_;
+  const std::size_t stride = static_cast<std::size_t>(dims_[0] + 1);
+  const std::size_t table = stride * static_cast<std::size_t>(dims_[1] + 1);
+  const int x0 = std::max(0, x - r);
+  const int x1 = std::min(dims_[0] - 1, x + r);
+  const int y0 = std::max(0, y - r);
+  const int y1 = std::min(dims_[1] - 1, y + r);
+  auto window_count = [&](int k) {
+    return window_sum(band_tables_.get() + static_cast<std::size_t>(k) * table, stride, x0, y0, x1,
+                      y1);
+  };
+  // The largest k that (1 - fraction) of the window's runs reach.
+  const double needed = (1.0 - fraction) * window_count(0);
+  int k = 0;
+  while (needed > 0.0 && k < ground_band_cells_ && window_count(k + 1) >= needed) ++k;
+  return k;
 }
 
 void FeatureMap::window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp,
@@ -195,8 +292,8 @@ void FeatureMap::window_min(const std::int16_t* values, std::int16_t* out, std::
 }
 
 bool FeatureMap::is_ground_cell(int x, int y, int z) const {
-  const std::int16_t t = terrain_[static_cast<std::size_t>(y) * dims_[0] + x];
-  return t != kNoHeight && height_of(z) <= t + ground_thickness_cells_;
+  const std::int16_t top = ground_top_[static_cast<std::size_t>(y) * dims_[0] + x];
+  return top != kNoHeight && height_of(z) <= top;
 }
 
 void FeatureMap::extract(const ZoneView& zone) {

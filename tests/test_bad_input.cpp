@@ -94,6 +94,9 @@ TEST(BadConfig, OutOfRangeValuesAreRefused) {
       {"blur: {radius: 7}\n", "radius"},
       {"sky_filter: {min_intensity: 300}\n", "min_intensity"},
       {"pose: {max_gap_s: 0}\n", "max_gap_s"},
+      {"ground: {band_percentile: 1.0}\n", "band_percentile"},
+      {"ground: {band_percentile: 0.3, thickness_m: 3.0, max_thickness_m: 2.0}\n",
+       "max_thickness_m"},
   };
   for (const auto& [text, word] : cases) {
     write_text(dir / "c.yaml", text);

@@ -179,6 +179,70 @@ TEST(FeatureExtraction, PostOnAPlaneIsOneObstacleAndGround) {
   EXPECT_EQ(ground[0]->max, (CellIndex{29, 29, 3}));
 }
 
+// A field whose ground band stereo smeared 4 cells thick (z 2..5), under free
+// air, with a post standing on it.
+TestZone thick_band_field(const std::array<int, 3>& dims) {
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < dims[1]; ++y)
+    for (int x = 0; x < dims[0]; ++x) {
+      for (int z = 2; z <= 5; ++z) zone.set(x, y, z);
+      for (int z = 6; z < dims[2]; ++z) zone.set(x, y, z, -kCellScale);
+    }
+  for (int z = 6; z <= 11; ++z) zone.set(15, 12, z);
+  return zone;
+}
+
+TEST(FeatureGround, AThickBandIsAllObstacleWithTheThicknessAlone) {
+  const std::array<int, 3> dims = {30, 30, 14};
+  FeatureMap map(feature_config(dims, true), true);
+  TestZone zone = thick_band_field(dims);
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 1u) << "the band's top and the post are one object";
+  EXPECT_EQ(obstacles[0]->max.x - obstacles[0]->min.x, 29) << "it spans the field";
+}
+
+TEST(FeatureGround, AMeasuredBandIsGroundAndThePostStandsOnIt) {
+  const std::array<int, 3> dims = {30, 30, 14};
+  MapConfig config = feature_config(dims, true);
+  config.features.ground_band_percentile = 0.3;
+  config.features.ground_max_thickness_m = 6.0;
+  FeatureMap map(config, true);
+  TestZone zone = thick_band_field(dims);
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_EQ(obstacles[0]->min, (CellIndex{15, 12, 3})) << "down to the terrain (z = 2)";
+  EXPECT_EQ(obstacles[0]->max, (CellIndex{15, 12, 11}));
+  ASSERT_EQ(features_of(map, FeatureKind::kGround).size(), 1u);
+  EXPECT_EQ(features_of(map, FeatureKind::kGround)[0]->max.z, 6)
+      << "the band, and the post's foot within its cell of scatter";
+}
+
+TEST(FeatureGround, RunsOfMixedHeightsAreNotABand) {
+  // A thin field (z = 2) and a row of bushes 3 cells tall (x 11..13): every window
+  // holding bushes holds field too, so its runs spread and the thickness holds.
+  const std::array<int, 3> dims = {30, 30, 10};
+  MapConfig config = feature_config(dims, true);
+  config.features.ground_band_percentile = 0.3;
+  config.features.ground_max_thickness_m = 6.0;
+  FeatureMap map(config, true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x) {
+      zone.set(x, y, 2);
+      for (int z = 3; z < 10; ++z) zone.set(x, y, z, -kCellScale);
+    }
+  for (int y = 0; y < 30; ++y)
+    for (int x = 11; x <= 13; ++x)
+      for (int z = 3; z <= 5; ++z) zone.set(x, y, z);
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_EQ(obstacles[0]->min, (CellIndex{11, 0, 3}));
+  EXPECT_EQ(obstacles[0]->max, (CellIndex{13, 29, 5}));
+}
+
 TEST(FeatureExtraction, ThingInFreeSpaceIsNotGround) {
   // A crown cut by the zone's bottom face: low, but surrounded by free air, so
   // not a surface (it fills 16 of the 121 columns of a 10 m window); it stays an

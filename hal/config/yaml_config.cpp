@@ -72,10 +72,13 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                {"split_touching", into(&c.features.split_touching)},
                                {"core_min_cells", into(&c.features.core_min_cells)}})},
          {"pipeline", [](const YAML::Node&) {}},  // the runtime's: runtime/runtime_config
-         {"ground", section("ground", {{"enabled", into(&c.features.ground_enabled)},
-                                       {"thickness_m", into(&c.features.ground_thickness_m)},
-                                       {"window_m", into(&c.features.ground_window_m)},
-                                       {"min_coverage", into(&c.features.ground_min_coverage)}})}});
+         {"ground",
+          section("ground", {{"enabled", into(&c.features.ground_enabled)},
+                             {"thickness_m", into(&c.features.ground_thickness_m)},
+                             {"window_m", into(&c.features.ground_window_m)},
+                             {"min_coverage", into(&c.features.ground_min_coverage)},
+                             {"band_percentile", into(&c.features.ground_band_percentile)},
+                             {"max_thickness_m", into(&c.features.ground_max_thickness_m)}})}});
   });
   if (!read) return false;
   const std::string invalid = validate(c);

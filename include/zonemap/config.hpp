@@ -50,7 +50,15 @@ struct FeatureConfig {
   double ground_thickness_m = 2.0;  // long-range stereo smears the ground upwards (eq. 5)
   double ground_window_m = 6.0;
   double ground_min_coverage = 0.5;
+  // Where far views made the ground band thicker than thickness_m (grazing rays, a
+  // slope facing the camera), the band as measured: per column, the occupied run
+  // rising from the lowest cell; the band_percentile of those run heights over the
+  // window (objects' columns rise higher and fall above it), at most
+  // max_thickness_m. band_percentile 0: thickness_m alone.
+  double ground_band_percentile = 0.0;
+  double ground_max_thickness_m = 4.0;
 };
+inline constexpr int kMaxGroundBandCells = 32;  // bounds the band's per-height tables
 
 struct MapConfig {
   double cell_size_m = 1.0;

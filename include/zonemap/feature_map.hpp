@@ -164,6 +164,12 @@ class FeatureMap : public ZoneObserver {
  private:
   bool is_ground_cell(int x, int y, int z) const;
   void compute_terrain(const ZoneSnapshot& zone);
+  // ground_top_ from terrain_ and run_top_: the thickness, or the band as measured.
+  void compute_ground_top();
+  // The band's height about column (x, y) as measured (0: not a surface band), and
+  // the `fraction` quantile of the window's clipped run heights above the terrain.
+  int measured_band(int x, int y) const;
+  int band_quantile(int x, int y, double fraction) const;
   // out = minimum of the values within radius r (kNoHeight entries left out).
   void window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp, int r) const;
   void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
@@ -245,6 +251,7 @@ class FeatureMap : public ZoneObserver {
   FusedCell reintegration_value_;
   int ground_thickness_cells_;
   int ground_window_cells_;
+  int ground_band_cells_;  // the band's largest measured height (0: the thickness alone)
 
   std::size_t capacity_;
   std::unique_ptr<Feature[]> features_;
@@ -258,6 +265,11 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::uint8_t[]> footprint_;   // nx * ny
   std::unique_ptr<std::int16_t[]> lowest_;      // per column: lowest occupied height, or -1
   std::unique_ptr<std::int16_t[]> terrain_;     // per column: terrain height, or -1
+  std::unique_ptr<std::int16_t[]> run_top_;     // per column: top of the run from lowest_, or -1
+  std::unique_ptr<std::int16_t[]> ground_top_;  // per column: highest ground height, or -1
+  // Summed-area tables, one per band height k = 0 .. ground_band_cells_: columns
+  // whose clipped run height above the terrain is at least k.
+  std::unique_ptr<std::int32_t[]> band_tables_;
   std::unique_ptr<std::int16_t[]> column_tmp_;
   std::unique_ptr<std::int32_t[]> coverage_;     // (nx + 1) * (ny + 1) summed-area table
   std::unique_ptr<std::int32_t[]> observed_;     // the same for columns with any known cell

@@ -192,6 +192,14 @@ TestZone thick_band_field(const std::array<int, 3>& dims) {
   return zone;
 }
 
+// The ground band measured (up to 6 cells), over the 1-cell thickness.
+MapConfig measured_band_config(const std::array<int, 3>& dims) {
+  MapConfig config = feature_config(dims, true);
+  config.features.ground_band_percentile = 0.3;
+  config.features.ground_max_thickness_m = 6.0;
+  return config;
+}
+
 TEST(FeatureGround, AThickBandIsAllObstacleWithTheThicknessAlone) {
   const std::array<int, 3> dims = {30, 30, 14};
   FeatureMap map(feature_config(dims, true), true);
@@ -204,10 +212,7 @@ TEST(FeatureGround, AThickBandIsAllObstacleWithTheThicknessAlone) {
 
 TEST(FeatureGround, AMeasuredBandIsGroundAndThePostStandsOnIt) {
   const std::array<int, 3> dims = {30, 30, 14};
-  MapConfig config = feature_config(dims, true);
-  config.features.ground_band_percentile = 0.3;
-  config.features.ground_max_thickness_m = 6.0;
-  FeatureMap map(config, true);
+  FeatureMap map(measured_band_config(dims), true);
   TestZone zone = thick_band_field(dims);
   map.extract(zone.view);
   const auto obstacles = features_of(map, FeatureKind::kObstacle);
@@ -223,10 +228,7 @@ TEST(FeatureGround, RunsOfMixedHeightsAreNotABand) {
   // A thin field (z = 2) and a row of bushes 3 cells tall (x 11..13): every window
   // holding bushes holds field too, so its runs spread and the thickness holds.
   const std::array<int, 3> dims = {30, 30, 10};
-  MapConfig config = feature_config(dims, true);
-  config.features.ground_band_percentile = 0.3;
-  config.features.ground_max_thickness_m = 6.0;
-  FeatureMap map(config, true);
+  FeatureMap map(measured_band_config(dims), true);
   TestZone zone(dims, {0, 0, 0});
   for (int y = 0; y < 30; ++y)
     for (int x = 0; x < 30; ++x) {

@@ -217,11 +217,9 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     terrain_scene(name == "terrain-rise", options.seed, s);
     s->trajectory = straight({0, 0, 18.0}, {58, 0, 18.0}, 5.0, 20 * kDeg, rate);
   } else {
-    *error = "unknown scenario '" + name + "' (";
-    for (const std::string& known : scenario_names()) {
-      *error += (known == scenario_names().front() ? "" : ", ") + known;
-    }
-    *error += ")";
+    std::string names;
+    for (const std::string& known : scenario_names()) names += (names.empty() ? "" : ", ") + known;
+    *error = "unknown scenario '" + name + "' (" + names + ")";
     return false;
   }
   return true;

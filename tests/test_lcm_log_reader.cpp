@@ -163,11 +163,11 @@ TEST(LcmLogReader, ATornLastEventIsCountedAndEndsTheLog) {
   std::vector<std::uint8_t> bytes;
   for (int i = 0; i < 4; ++i) put_event(&bytes, i, "INS", payload(i));
   put_event(&bytes, 4, "INS", payload(4));
-  bytes.resize(bytes.size() - 10);
+  bytes.erase(bytes.end() - 10, bytes.end());
   const ReadBack r = read_both_ways(bytes, "torn");
   EXPECT_EQ(r.numbers, range(0, 3));
   EXPECT_EQ(r.damaged, 1);
-  bytes.resize(bytes.size() - 50);  // now inside the header
+  bytes.erase(bytes.end() - 50, bytes.end());  // now inside the header
   EXPECT_EQ(read_both_ways(bytes, "torn-header").damaged, 1);
 }
 

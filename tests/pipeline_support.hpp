@@ -36,7 +36,8 @@ struct Flight {
   RecordingHooks hooks;
 
   explicit Flight(std::size_t frames) {
-    const std::string path = write_test_scenario("posts-through", dir / "seq", 4.0, 4, frames);
+    const std::string path =
+        write_test_scenario("posts-through", dir / "seq", 4.0, kRuntimePixelStep, frames);
     std::string error;
     EXPECT_TRUE(hal::load_map_config(path, &config, &error)) << error;
     EXPECT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;

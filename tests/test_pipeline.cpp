@@ -214,7 +214,7 @@ TEST(PoseBuffer, ReaderAlwaysSeesConsistentSamples) {
 
 std::string test_sequence(const testing::TempDir& dir, const std::string& name, double rate,
                           std::size_t frames) {
-  return testing::write_test_scenario(name, dir / "seq", rate, 4, frames);
+  return testing::write_test_scenario(name, dir / "seq", rate, testing::kRuntimePixelStep, frames);
 }
 
 // The threaded pipeline (lossless) against the single-threaded replay: the same

@@ -162,7 +162,8 @@ TEST(FlightRecorder, SaysWhyItCannotCreateTheFile) {
 void expect_replay_records(bool pipelined) {
   testing::TempDir dir;
   const std::string sequence = dir / "seq";
-  const std::string config = testing::write_test_scenario("posts-around", sequence, 4.0, 4, 60);
+  const std::string config =
+      testing::write_test_scenario("posts-around", sequence, 4.0, testing::kRuntimePixelStep, 60);
   tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   options.record_path = dir / "run.mcap";
   options.record_depth_every = 2;

@@ -122,10 +122,6 @@ bool render_through_cache(const std::string& key, const std::string& dir, Render
   return !ec;
 }
 
-// Writes a generated scenario with the paper's camera (640x480: its focal length
-// sets Δd of eq. 1, so smaller images would mean a worse sensor) at a low frame
-// rate, plus a copy of its config that maps every `pixel_step`-th pixel to keep
-// tests fast. Returns the config's path, empty on failure.
 // The threaded runtime's flights map every 4th pixel; under ThreadSanitizer every
 // 8th: the same threads and hand-overs with a quarter of the rays (the mapping is
 // what instrumentation slows most).
@@ -135,6 +131,10 @@ inline constexpr int kRuntimePixelStep = 8;
 inline constexpr int kRuntimePixelStep = 4;
 #endif
 
+// Writes a generated scenario with the paper's camera (640x480: its focal length
+// sets Δd of eq. 1, so smaller images would mean a worse sensor) at a low frame
+// rate, plus a copy of its config that maps every `pixel_step`-th pixel to keep
+// tests fast. Returns the config's path, empty on failure.
 inline std::string write_test_scenario(const std::string& name, const std::string& dir,
                                        double rate_hz, int pixel_step, std::size_t max_frames = 0) {
   sim::Scenario scenario;

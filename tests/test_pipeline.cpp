@@ -324,33 +324,73 @@ TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
   EXPECT_EQ(run.stats().heap_allocations_after_init, 0);
 }
 
+// Newest wins, paced by state: the source hands out its next frame only once the
+// mapping thread has mapped the last one (kNone until then), so every frame is
+// mapped however slow the machine, and only the mapping / extraction interplay
+// is left to the threads.
+class MapperPacedSource final : public hal::FrameSource {
+ public:
+  MapperPacedSource(hal::FrameSource& inner, const std::atomic<std::int64_t>& mapped)
+      : inner_(inner), mapped_(mapped) {}
+  const CameraModel& camera() const override { return inner_.camera(); }
+  hal::CameraFrame make_frame() const override { return inner_.make_frame(); }
+  hal::FrameRead next(hal::CameraFrame* frame, int wait_ms, std::string* why) override {
+    if (mapped_.load(std::memory_order_acquire) < delivered_) {
+      std::this_thread::yield();
+      return hal::FrameRead::kNone;
+    }
+    const hal::FrameRead read = inner_.next(frame, wait_ms, why);
+    if (read == hal::FrameRead::kFrame) ++delivered_;
+    return read;
+  }
+
+ private:
+  hal::FrameSource& inner_;
+  const std::atomic<std::int64_t>& mapped_;
+  std::int64_t delivered_ = 0;
+};
+
+class CountingHooks final : public runtime::MappingHooks {
+ public:
+  std::atomic<std::int64_t> mapped{0};
+  void after_frame(std::size_t, const Eigen::Isometry3d&, const FrameReport&, double) override {
+    mapped.fetch_add(1, std::memory_order_release);
+  }
+};
+
 TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
   // Live mode: the mapping thread does not wait for the extraction thread's
   // re-integration boxes; it writes them at the next frames. Zones still come
   // back on the out-and-back flight and get their stored obstacles.
   testing::TempDir dir;
-  const std::string config = test_sequence(dir, "out-and-back", 1.5, 0);
-  tools::ReplayOptions options = testing::quiet_replay(dir / "seq", config);
+  const std::string config_path = test_sequence(dir, "out-and-back", 1.5, 0);
+  MapConfig config;
   std::string error;
-  tools::ReplayRun run;
-  ASSERT_TRUE(run.open(options, &error)) << error;
-  runtime::PipelineOptions pipeline;
-  pipeline.lossless = false;
-  // Paced like a camera, slow enough that the mapper keeps up even under qemu or a
-  // sanitizer (76 frames: 15 s), so that the flight is mapped on the way back.
-  pipeline.source_rate_hz = 5.0;
-  run.run_pipelined(pipeline);
-  const runtime::PipelineStats& p = run.pipeline_stats();
+  replay::ReplaySequence sequence;
+  ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
+  ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
+  Mapper mapper(config, sequence.camera());
+  FeatureMap features(config, true);
+  mapper.zones().add_observer(&features);
+  CountingHooks hooks;
+  runtime::PipelineOptions options;
+  options.lossless = false;  // newest wins
+  replay::ReplayFrameSource replay_frames(sequence, 0.0);
+  MapperPacedSource frames(replay_frames, hooks.mapped);
+  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, mapper, features, hooks,
+                             options);
+  pipeline.run();
+  const runtime::PipelineStats& p = pipeline.stats();
   std::printf(
-      "[ newest wins ] %lld mapped, %lld extractions (%lld deferred), %lld boxes / %lld "
+      "[ newest wins ] %lld of %zu mapped, %lld extractions (%lld deferred), %lld boxes / %lld "
       "cells re-integrated, %lld for zones already gone\n",
-      static_cast<long long>(p.frames_mapped), static_cast<long long>(p.extractions),
-      static_cast<long long>(p.extractions_deferred), static_cast<long long>(p.reintegration_boxes),
-      static_cast<long long>(p.reintegration_cells),
+      static_cast<long long>(p.frames_mapped), sequence.frame_count(),
+      static_cast<long long>(p.extractions), static_cast<long long>(p.extractions_deferred),
+      static_cast<long long>(p.reintegration_boxes), static_cast<long long>(p.reintegration_cells),
       static_cast<long long>(p.reintegration_zone_gone));
-  EXPECT_GT(p.frames_mapped, 20);
+  EXPECT_EQ(p.frames_mapped, static_cast<std::int64_t>(sequence.frame_count()));
   EXPECT_GT(p.reintegration_cells, 0);
-  EXPECT_EQ(run.features().counters().cells_reintegrated, p.reintegration_cells);
+  EXPECT_EQ(features.counters().cells_reintegrated, p.reintegration_cells);
   EXPECT_EQ(
       p.mapping_thread_allocations + p.extraction_thread_allocations + p.output_thread_allocations,
       0);

@@ -362,8 +362,11 @@ TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
   // Live mode: the mapping thread does not wait for the extraction thread's
   // re-integration boxes; it writes them at the next frames. Zones still come
   // back on the out-and-back flight and get their stored obstacles.
+  // Every frame is mapped here (the other runtime flights' pixel step would cost
+  // this one four times the rays of its 5 Hz predecessor): half the rays suffice.
   testing::TempDir dir;
-  const std::string config_path = test_sequence(dir, "out-and-back", 1.5, 0);
+  const std::string config_path = testing::write_test_scenario("out-and-back", dir / "seq", 1.5,
+                                                               2 * testing::kRuntimePixelStep);
   MapConfig config;
   std::string error;
   replay::ReplaySequence sequence;

@@ -2,10 +2,12 @@
 // figures gathered from each thread's counters after the join.
 #include "runtime/pipeline.hpp"
 
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "hal/os/realtime.hpp"
+#include "hal/os/worker_pool.hpp"
 #include "runtime/pipeline_impl.hpp"
 
 namespace zonemap::runtime {
@@ -138,6 +140,14 @@ void Pipeline::run() {
   }
   impl_->static_bytes =
       reserved_bytes() + impl_->mapper.reserved_bytes() + impl_->features.reserved_bytes();
+  // The mapping step's other workers, started once with the pipeline.
+  std::optional<os::WorkerPool> workers;
+  if (impl_->options.mapping_workers > 1) {
+    workers.emplace(
+        os::WorkerOptions{impl_->options.mapping_workers, impl_->options.priority_mapping, {}});
+    warnings.insert(warnings.end(), workers->warnings().begin(), workers->warnings().end());
+    impl_->mapper.set_work_split(&*workers);
+  }
   const long rss_after_start = os::resident_bytes();
   // The extraction thread owns the feature map from here: the mapping thread's
   // zone events go to the feed instead.
@@ -156,8 +166,16 @@ void Pipeline::run() {
   extraction.join();
   output.join();
   if (fed) zones.replace_observer(&impl_->feed, &impl_->features);
+  impl_->mapper.set_work_split(nullptr);
   impl_->features.add_cells_reintegrated(impl_->mapping_stats.reintegration_cells);
   stats_ = impl_->gathered_stats();
+  if (workers) {  // the mapping step's workers count as the mapping thread
+    const os::AllocationCounts w = workers->job_allocations();
+    stats_.mapping_thread_allocations += w.allocations;
+    stats_.mapping_thread_frees += w.frees;
+    stats_.heap_allocations_after_init += w.allocations;
+    stats_.heap_frees_after_init += w.frees;
+  }
   stats_.warnings.insert(stats_.warnings.begin(), warnings.begin(), warnings.end());
   stats_.rss_after_start = rss_after_start;
   stats_.rss_at_end = os::resident_bytes();

@@ -45,7 +45,10 @@ struct PipelineOptions {
   int cpu_acquisition = -1, cpu_mapping = -1, cpu_output = -1;              // -1 = any
   int priority_ins = 0, cpu_ins = -1;                                       // the live INS thread
   int priority_extraction = 0, cpu_extraction = -1;                         // feature extraction
-  double health_period_s = 1.0;                                             // health to the sinks
+  // Threads sharing the mapping step's frustum walk, the mapping thread one of
+  // them (the others at priority_mapping, any CPU); the map is the same for any.
+  int mapping_workers = 1;
+  double health_period_s = 1.0;                                     // health to the sinks
   bool include_ground = false;                                      // ground boxes to the sinks too
   Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();  // for body-frame outputs
   bool world_z_up = true;

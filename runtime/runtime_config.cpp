@@ -2,7 +2,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <string>
+
 #include "hal/config/yaml_support.hpp"
+#include "zonemap/projective_integrator.hpp"
 
 namespace zonemap::runtime {
 namespace {
@@ -33,7 +36,8 @@ bool parse_pipeline_section(const YAML::Node& root, const std::string& path,
                          {"cpu_mapping", hal::into(&o.cpu_mapping)},
                          {"cpu_output", hal::into(&o.cpu_output)},
                          {"cpu_extraction", hal::into(&o.cpu_extraction)},
-                         {"cpu_ins", hal::into(&o.cpu_ins)}});
+                         {"cpu_ins", hal::into(&o.cpu_ins)},
+                         {"mapping_workers", hal::into(&o.mapping_workers)}});
     });
     if (!read) return false;
   }
@@ -61,6 +65,10 @@ std::string validate_pipeline_section(const PipelineOptions& o) {
                        cpu_ok(o.cpu_extraction) && cpu_ok(o.cpu_ins);
   if (!priorities_ok || !cpus_ok) {
     return "pipeline priorities must be in [0, 99] and cpus in [-1, 1023]";
+  }
+  if (o.mapping_workers < 1 || o.mapping_workers > ProjectiveIntegrator::kMaxParts) {
+    return "pipeline.mapping_workers must be in [1, " +
+           std::to_string(ProjectiveIntegrator::kMaxParts) + "]";
   }
   return "";
 }

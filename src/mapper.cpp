@@ -228,7 +228,7 @@ void Mapper::integrate_projective(const DepthFrameView& frame,
                                   const Eigen::Isometry3d& world_T_camera, FrameReport* report) {
   classify_depths(frame, report);
   depths_.build();
-  const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_);
+  const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_, split_);
   report->cells_visited = drawn.cells_evaluated;
   report->cells_block_free = drawn.cells_block_free;
   report->cells_box_free = drawn.cells_box_free;
@@ -357,7 +357,7 @@ void Mapper::finish_and_fuse(const Eigen::Vector3f& camera_cells,
     local_.weight_occupancy_by_range(camera_cells, axis_per_cell, full_weight_depth_m_,
                                      static_cast<float>(config_.min_weight));
   }
-  zones_.fuse(local_);
+  zones_.fuse(local_, split_);
 }
 
 }  // namespace zonemap

@@ -598,9 +598,18 @@ float ProjectiveIntegrator::reach(std::uint16_t code) const {
   return std::min(d + d * d * resolution_factor_, d_max_);
 }
 
+// classify_blocks()'s constants for one frame, shared by its parts.
+struct ProjectiveIntegrator::BlockSetup {
+  double side = 0.0, half_z = 0.0;
+  Eigen::Matrix3d rt;
+  Eigen::Vector3d t, base, step_x_camera;
+  Projection projection;
+  Frustum frustum;
+};
+
 void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
                                            const Eigen::Isometry3d& world_T_camera,
-                                           const CellIndex& origin) {
+                                           const CellIndex& origin, WorkSplit* split) {
   const double side = cell_size_m_ * kBlock;
   const Eigen::Matrix3d rt = world_T_camera.linear().transpose();
   const Eigen::Vector3d t = world_T_camera.translation();
@@ -621,7 +630,35 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
   const Eigen::Vector3d base = Eigen::Vector3d(origin.x, origin.y, origin.z) * cell_size_m_ +
                                Eigen::Vector3d::Constant(0.5 * side);  // centre of block (0, 0, 0)
   const Eigen::Vector3d step_x_camera = rt.col(0) * side;
-  for (int bz = 0; bz < blocks_[2]; ++bz) {
+  const BlockSetup b{side, half_z, rt, t, base, step_x_camera, projection, frustum};
+  const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxParts);
+  struct Context {
+    const ProjectiveIntegrator* self;
+    const DepthRangeTable* depths;
+    const BlockSetup* b;
+    int parts;
+  } context{this, &depths, &b, parts};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    const Context& x = *static_cast<const Context*>(c);
+    if (part < x.parts) x.self->classify_block_rows(*x.depths, *x.b, share_of(part, x.parts));
+  };
+  if (parts == 1) {
+    job(&context, 0, 1);
+  } else {
+    split->run(job, &context);
+  }
+}
+
+void ProjectiveIntegrator::classify_block_rows(const DepthRangeTable& depths, const BlockSetup& b,
+                                               RowShare share) const {
+  const double side = b.side, half_z = b.half_z;
+  const Eigen::Matrix3d& rt = b.rt;
+  const Eigen::Vector3d& t = b.t;
+  const Eigen::Vector3d& base = b.base;
+  const Eigen::Vector3d& step_x_camera = b.step_x_camera;
+  const Projection& projection = b.projection;
+  const Frustum& frustum = b.frustum;
+  for (int bz = share.first; bz < blocks_[2]; bz += share.step) {
     for (int by = 0; by < blocks_[1]; ++by) {
       const double wy = base.y() + by * side, wz = base.z() + bz * side;
       int bx_lo = 0, bx_hi = -1;
@@ -751,16 +788,59 @@ ProjectiveIntegrator::prepare_frame(const Eigen::Isometry3d& world_T_camera,
 }
 
 ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
-                                           const Eigen::Isometry3d& world_T_camera,
-                                           LocalGrid& grid) {
-  classify_blocks(depths, world_T_camera, grid.origin());
+                                           const Eigen::Isometry3d& world_T_camera, LocalGrid& grid,
+                                           WorkSplit* split) {
+  classify_blocks(depths, world_T_camera, grid.origin(), split);
   const FrameSetup f = prepare_frame(world_T_camera, grid);
-  const std::array<int, 3>& dims = grid.dims();
-  CellRays cell = f.cell;
+  const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxParts);
+  struct Context {
+    const ProjectiveIntegrator* self;
+    const FrameSetup* f;
+    const DepthRangeTable* depths;
+    LocalGrid* grid;
+    int parts;
+    PartResult* results;
+  } context{this, &f, &depths, &grid, parts, parts_.data()};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    Context& x = *static_cast<Context*>(c);
+    if (part >= x.parts) return;
+    x.self->draw_rows(*x.f, *x.depths, share_of(part, x.parts), *x.grid, &x.results[part]);
+  };
+  if (parts == 1) {
+    job(&context, 0, 1);
+  } else {
+    split->run(job, &context);
+  }
+  // Integer sums and bounds: the same whatever the number of parts.
   ProjectiveStats stats;
-  int touched_lo[3] = {dims[0], dims[1], dims[2]};
-  int touched_hi[3] = {-1, -1, -1};
-  for (int z = 0; z < dims[2]; ++z) {
+  PartResult all;
+  for (int p = 0; p < parts; ++p) {
+    stats += parts_[p].stats;
+    for (int a = 0; a < 3; ++a) {
+      all.touched_lo[a] = std::min(all.touched_lo[a], parts_[p].touched_lo[a]);
+      all.touched_hi[a] = std::max(all.touched_hi[a], parts_[p].touched_hi[a]);
+    }
+  }
+  if (all.touched_hi[0] >= 0) {
+    grid.extend_touched(all.touched_lo[0], all.touched_lo[1], all.touched_lo[2], all.touched_hi[0],
+                        all.touched_hi[1], all.touched_hi[2]);
+  }
+  return stats;
+}
+
+void ProjectiveIntegrator::draw_rows(const FrameSetup& setup, const DepthRangeTable& depths,
+                                     RowShare share, LocalGrid& grid, PartResult* result) const {
+  // The part's own copy: the cell writes are bytes, which may alias anything
+  // whose address escaped, so constants read through a reference would be
+  // reloaded for every cell.
+  const FrameSetup f = setup;
+  const std::array<int, 3> dims = grid.dims();
+  CellRays cell = f.cell;
+  PartResult part;  // a local for the same reason, stored at the end
+  ProjectiveStats& stats = part.stats;
+  int* touched_lo = part.touched_lo.data();
+  int* touched_hi = part.touched_hi.data();
+  for (int z = share.first; z < dims[2]; z += share.step) {
     for (int y = 0; y < dims[1]; ++y) {
       const double wy = f.base.y() + y * f.s, wz = f.base.z() + z * f.s;
       int xa = 0, xb = -1;
@@ -791,9 +871,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
       }
     }
   }
-  grid.extend_touched(touched_lo[0], touched_lo[1], touched_lo[2], touched_hi[0], touched_hi[1],
-                      touched_hi[2]);
-  return stats;
+  *result = part;
 }
 
 // Inlined into draw's row loop: it is the per-cell body, apart only for reading.

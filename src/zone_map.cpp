@@ -142,7 +142,25 @@ int ZoneMap::move_environment(const CellIndex& origin) {
   return allocated;
 }
 
-void ZoneMap::fuse(const LocalGrid& local) {
+void ZoneMap::fuse(const LocalGrid& local, WorkSplit* split) {
+  const int parts = split == nullptr ? 1 : split->parts();
+  struct Context {
+    ZoneMap* self;
+    const LocalGrid* local;
+    int parts;
+  } context{this, &local, parts};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    const Context& x = *static_cast<const Context*>(c);
+    x.self->fuse_rows(*x.local, share_of(part, x.parts));
+  };
+  if (parts == 1) {
+    job(&context, 0, 1);
+  } else {
+    split->run(job, &context);
+  }
+}
+
+void ZoneMap::fuse_rows(const LocalGrid& local, RowShare share) {
   // Only the local grid's active region holds values; the rest is untouched.
   const CellIndex origin = local.origin();
   const CellIndex lo{origin.x + local.active_lo()[0], origin.y + local.active_lo()[1],
@@ -163,7 +181,7 @@ void ZoneMap::fuse(const LocalGrid& local) {
     const int z0 = std::max(lo.z, zone.origin.z);
     const int z1 = std::min(lo.z + ld[2], zone.origin.z + dims_[2]);
     if (x0 >= x1 || y0 >= y1 || z0 >= z1) continue;
-    for (int z = z0; z < z1; ++z) {
+    for (int z = z0 + share.first; z < z1; z += share.step) {
       for (int y = y0; y < y1; ++y) {
         // Only the row's span can be non-zero (0 adds nothing).
         int span_lo = 0, span_hi = -1;

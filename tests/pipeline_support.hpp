@@ -27,23 +27,33 @@ struct RecordingHooks : runtime::MappingHooks {
   }
 };
 
-struct Flight {
+// A generated flight loaded for the runtime: its config, sequence, mapper and
+// the feature map observing the mapper's zones.
+struct MappedSequence {
   TempDir dir;
   MapConfig config;
   replay::ReplaySequence sequence;
   std::unique_ptr<Mapper> mapper;
   std::unique_ptr<FeatureMap> features;
-  RecordingHooks hooks;
 
-  explicit Flight(std::size_t frames) {
+  MappedSequence(const std::string& scenario, double rate_hz, int pixel_step, std::size_t frames) {
     const std::string path =
-        write_test_scenario("posts-through", dir / "seq", 4.0, kRuntimePixelStep, frames);
+        write_test_scenario(scenario, dir / "seq", rate_hz, pixel_step, frames);
     std::string error;
     EXPECT_TRUE(hal::load_map_config(path, &config, &error)) << error;
     EXPECT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
     mapper = std::make_unique<Mapper>(config, sequence.camera());
     features = std::make_unique<FeatureMap>(config, true);
     mapper->zones().add_observer(features.get());
+  }
+};
+
+// The posts flight with hooks that note what was mapped.
+struct Flight : MappedSequence {
+  RecordingHooks hooks;
+
+  explicit Flight(std::size_t frames)
+      : MappedSequence("posts-through", 4.0, kRuntimePixelStep, frames) {
     hooks.mapped.reserve(frames);
     hooks.mapper = mapper.get();
     hooks.features = features.get();

@@ -20,6 +20,7 @@
 
 #include "hal/config/yaml_config.hpp"
 #include "hal/os/doorbell.hpp"
+#include "pipeline_support.hpp"
 #include "replay_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
@@ -220,7 +221,7 @@ std::string test_sequence(const testing::TempDir& dir, const std::string& name, 
 // The threaded pipeline (lossless) against the single-threaded replay: the same
 // map cell for cell, the same boxes.csv, the same re-integrated cells.
 void expect_threaded_equals_single(const char* scenario, double rate_hz, int frames,
-                                   int min_box_lines) {
+                                   int min_box_lines, int mapping_workers = 1) {
   testing::TempDir dir;
   const std::string config =
       test_sequence(dir, scenario, rate_hz, static_cast<std::size_t>(frames));
@@ -233,6 +234,7 @@ void expect_threaded_equals_single(const char* scenario, double rate_hz, int fra
   tools::ReplayRun threaded;
   ASSERT_TRUE(threaded.open(options, &error)) << error;
   runtime::PipelineOptions pipeline;  // lossless
+  pipeline.mapping_workers = mapping_workers;
   threaded.run_pipelined(pipeline);
   EXPECT_EQ(threaded.stats().frames_mapped, single.stats().frames_mapped);
   if (frames > 0) {
@@ -273,7 +275,8 @@ void expect_threaded_equals_single(const char* scenario, double rate_hz, int fra
 }
 
 TEST(Pipeline, ThreadedRunEqualsSingleThreadedRun) {
-  expect_threaded_equals_single("posts-through", 4.0, 40, 3);  // header, two posts, ground
+  // The threaded run's mapping step shared with a worker thread: the same map.
+  expect_threaded_equals_single("posts-through", 4.0, 40, 3, 2);  // header, two posts, ground
 }
 
 TEST(Pipeline, ThreadedRunEqualsSingleThreadedRunWithZonesComingBack) {
@@ -291,6 +294,7 @@ TEST(Pipeline, NoAllocationInTheMappingExtractionAndOutputThreads) {
   ASSERT_TRUE(run.open(options, &error)) << error;
   runtime::PipelineOptions pipeline;
   pipeline.publish_every_frames = 1;
+  pipeline.mapping_workers = 2;  // the worker's allocations count as the mapping thread's
   run.run_pipelined(pipeline);
   const runtime::PipelineStats& p = run.pipeline_stats();
   std::printf(
@@ -364,24 +368,16 @@ TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
   // back on the out-and-back flight and get their stored obstacles.
   // Every frame is mapped here (the other runtime flights' pixel step would cost
   // this one four times the rays of its 5 Hz predecessor): half the rays suffice.
-  testing::TempDir dir;
-  const std::string config_path = testing::write_test_scenario("out-and-back", dir / "seq", 1.5,
-                                                               2 * testing::kRuntimePixelStep);
-  MapConfig config;
-  std::string error;
-  replay::ReplaySequence sequence;
-  ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
-  ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
-  Mapper mapper(config, sequence.camera());
-  FeatureMap features(config, true);
-  mapper.zones().add_observer(&features);
+  testing::MappedSequence flight("out-and-back", 1.5, 2 * testing::kRuntimePixelStep, 0);
+  ASSERT_FALSE(HasFailure());
+  const replay::ReplaySequence& sequence = flight.sequence;
   CountingHooks hooks;
   runtime::PipelineOptions options;
   options.lossless = false;  // newest wins
   replay::ReplayFrameSource replay_frames(sequence, 0.0);
   MapperPacedSource frames(replay_frames, hooks.mapped);
-  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, mapper, features, hooks,
-                             options);
+  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, *flight.mapper,
+                             *flight.features, hooks, options);
   pipeline.run();
   const runtime::PipelineStats& p = pipeline.stats();
   std::printf(
@@ -393,7 +389,7 @@ TEST(Pipeline, NewestWinsWritesReintegrationBoxesWhenTheyCome) {
       static_cast<long long>(p.reintegration_zone_gone));
   EXPECT_EQ(p.frames_mapped, static_cast<std::int64_t>(sequence.frame_count()));
   EXPECT_GT(p.reintegration_cells, 0);
-  EXPECT_EQ(features.counters().cells_reintegrated, p.reintegration_cells);
+  EXPECT_EQ(flight.features->counters().cells_reintegrated, p.reintegration_cells);
   EXPECT_EQ(
       p.mapping_thread_allocations + p.extraction_thread_allocations + p.output_thread_allocations,
       0);
@@ -414,23 +410,16 @@ class SlowMapper : public runtime::MappingHooks {
 };
 
 TEST(Pipeline, OverloadDropsTheOldestAndCountsThem) {
-  testing::TempDir dir;
-  const std::string config_path = test_sequence(dir, "posts-through", 4.0, 60);
-  MapConfig config;
-  std::string error;
-  replay::ReplaySequence sequence;
-  ASSERT_TRUE(hal::load_map_config(config_path, &config, &error)) << error;
-  ASSERT_TRUE(sequence.open(dir / "seq", "", config, &error)) << error;
-  Mapper mapper(config, sequence.camera());
-  FeatureMap features(config, true);
-  mapper.zones().add_observer(&features);
+  testing::MappedSequence flight("posts-through", 4.0, testing::kRuntimePixelStep, 60);
+  ASSERT_FALSE(HasFailure());
+  const replay::ReplaySequence& sequence = flight.sequence;
   SlowMapper hooks;
   hooks.total = static_cast<std::int64_t>(sequence.frame_count());
   runtime::PipelineOptions options;
   options.lossless = false;  // newest wins
   replay::ReplayFrameSource frames(sequence, options.source_rate_hz);
-  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, mapper, features, hooks,
-                             options);
+  runtime::Pipeline pipeline(frames, &sequence.poses(), nullptr, {}, *flight.mapper,
+                             *flight.features, hooks, options);
   hooks.pipeline = &pipeline;
   pipeline.run();
   const runtime::PipelineStats& s = pipeline.stats();

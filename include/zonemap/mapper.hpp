@@ -71,6 +71,9 @@ class Mapper {
   Mapper(const MapConfig& config, const CameraModel& camera);
 
   FrameReport integrate(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera);
+  // Shares the projective frustum walk and the fusion among a split's parts (nullptr: one
+  // part, on the calling thread). The map is the same either way.
+  void set_work_split(WorkSplit* split) { split_ = split; }
 
   // The world cell that contains a world point.
   CellIndex cell_of(const Eigen::Vector3d& point) const;
@@ -138,9 +141,10 @@ class Mapper {
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
   std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows
-  std::uint16_t raw_near_last_ = 0;            // raw depths <= this are below d_min (0: none)
-  std::uint16_t raw_far_last_ = 0;             // raw depths above this are beyond d_max
-  float full_weight_depth_m_ = 0.0f;           // range weighting: full weight up to here
+  WorkSplit* split_ = nullptr;
+  std::uint16_t raw_near_last_ = 0;   // raw depths <= this are below d_min (0: none)
+  std::uint16_t raw_far_last_ = 0;    // raw depths above this are beyond d_max
+  float full_weight_depth_m_ = 0.0f;  // range weighting: full weight up to here
 };
 
 }  // namespace zonemap

@@ -20,6 +20,7 @@
 #include "zonemap/config.hpp"
 #include "zonemap/depth_range_table.hpp"
 #include "zonemap/local_grid.hpp"
+#include "zonemap/work_split.hpp"
 
 namespace zonemap {
 
@@ -32,15 +33,27 @@ struct ProjectiveStats {
   std::int64_t cells_hidden = 0;      // in the frustum, behind every surface: no ray reaches
   std::int64_t cells_exact = 0;       // settled ray by ray (bounds did not agree)
   std::int64_t rays_exact = 0;        // pixel rays clipped against those cells
+  ProjectiveStats& operator+=(const ProjectiveStats& o) {
+    cells_evaluated += o.cells_evaluated;
+    cells_block_free += o.cells_block_free;
+    cells_box_free += o.cells_box_free;
+    cells_hidden += o.cells_hidden;
+    cells_exact += o.cells_exact;
+    rays_exact += o.rays_exact;
+    return *this;
+  }
 };
 
 class ProjectiveIntegrator {
  public:
   ProjectiveIntegrator(const MapConfig& config, const CameraModel& camera);
 
-  // Writes the frame into `grid` (already reset to the environment).
+  // Writes the frame into `grid` (already reset to the environment). With a
+  // split, the frustum's rows are shared among its parts (each writes cells of
+  // its own rows only): the grid and the stats are the same for any split.
   ProjectiveStats draw(const DepthRangeTable& depths, const Eigen::Isometry3d& world_T_camera,
-                       LocalGrid& grid);
+                       LocalGrid& grid, WorkSplit* split = nullptr);
+  static constexpr int kMaxParts = 8;
 
   std::size_t reserved_bytes() const { return block_count_; }
 
@@ -79,6 +92,13 @@ class ProjectiveIntegrator {
   // and one cell settled (free, the reference's sign, or left alone).
   struct FrameSetup;
   FrameSetup prepare_frame(const Eigen::Isometry3d& world_T_camera, const LocalGrid& grid) const;
+  struct PartResult {
+    ProjectiveStats stats;
+    std::array<int, 3> touched_lo{INT32_MAX, INT32_MAX, INT32_MAX};
+    std::array<int, 3> touched_hi{-1, -1, -1};
+  };
+  void draw_rows(const FrameSetup& f, const DepthRangeTable& depths, RowShare share,
+                 LocalGrid& grid, PartResult* result) const;
   void settle_cell(const FrameSetup& f, const DepthRangeTable& depths, std::uint8_t block, int x,
                    int y, int z, const Eigen::Vector3d& pc, CellRays& cell, LocalGrid& grid,
                    ProjectiveStats* stats) const;
@@ -91,11 +111,15 @@ class ProjectiveIntegrator {
   // One class per block of the local grid: mixed, free (every ray near it is
   // free across it) or unseen (no ray reaches it).
   void classify_blocks(const DepthRangeTable& depths, const Eigen::Isometry3d& world_T_camera,
-                       const CellIndex& origin);
+                       const CellIndex& origin, WorkSplit* split);
+  struct BlockSetup;
+  void classify_block_rows(const DepthRangeTable& depths, const BlockSetup& b,
+                           RowShare share) const;
 
   std::array<int, 3> blocks_{};
   std::size_t block_count_ = 0;
   std::unique_ptr<std::uint8_t[]> block_class_;
+  std::array<PartResult, kMaxParts> parts_{};
   float d_min_;
   float d_max_;
   float resolution_factor_;      // Δd = d² * factor (eq. 1)

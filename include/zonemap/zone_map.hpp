@@ -11,6 +11,7 @@
 
 #include "zonemap/cell.hpp"
 #include "zonemap/config.hpp"
+#include "zonemap/work_split.hpp"
 
 namespace zonemap {
 
@@ -73,7 +74,8 @@ class ZoneMap {
 
   // Eq. (7): m_t = m_{t-1} + m̂_t for every cell of the local grid, saturating at
   // ±limit. The local grid's origin must be the current environment origin.
-  void fuse(const LocalGrid& local);
+  // With a split, each part adds its own share of the rows (the sum is the same).
+  void fuse(const LocalGrid& local, WorkSplit* split = nullptr);
 
   // The fused value of a world cell, or false when no zone holds a grid there.
   bool value_at(const CellIndex& cell, FusedCell* value) const;
@@ -103,6 +105,7 @@ class ZoneMap {
   const std::array<int, 3>& zone_dims() const { return dims_; }
 
  private:
+  void fuse_rows(const LocalGrid& local, RowShare share);
   struct Slot {
     ZoneKey key;
     bool live = false;

@@ -6,6 +6,7 @@
 //   zonemap-bench --indoor [--frames N]  only the indoor regime (fine cells, d_max 4 m:
 //                                      the Kinect frames of ../shared/data, a room)
 //   zonemap-bench --micro [gbench args]  Google Benchmark micro benchmarks per stage
+//   zonemap-bench --workers [--frames N]  the mapping step with 1, 2 and 4 worker threads
 //   zonemap-bench --projective CELL [--frames N] [--repeat R] [--full-extent]
 //                                      only the projective path at one cell size, R
 //                                      passes, the best median (for profiling: perf
@@ -22,8 +23,10 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "hal/os/worker_pool.hpp"
 #include "hal/replay/sequence.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/feature_map.hpp"
@@ -235,8 +238,9 @@ Timing summarise(std::vector<double> ms, double cells) {
   return t;
 }
 
-Timing time_zonemap(const Frames& f, const MapConfig& config) {
+Timing time_zonemap(const Frames& f, const MapConfig& config, WorkSplit* split = nullptr) {
   Mapper mapper(config, f.camera);
+  mapper.set_work_split(split);
   const InstructionCounter& counter = instruction_counter();
   std::vector<double> ms, minstr;
   double cells = 0, block_free = 0, hidden = 0, exact_cells = 0, exact_rays = 0;
@@ -398,6 +402,80 @@ void indoor_comparison(int frame_count) {
   for (const auto& [name, frames] : sets) indoor_agreement(name, frames, 0.04);
 }
 
+// The parts of each job run one after another on this thread, each timed: a
+// frame's time with `parts` workers of their own is then its time here minus,
+// per job, every part but the longest (what the split would run at once).
+class TimedSerialSplit final : public WorkSplit {
+ public:
+  explicit TimedSerialSplit(int parts) : parts_(parts) {}
+  int parts() const override { return parts_; }
+  void run(Job job, void* context) override {
+    double sum = 0, longest = 0;
+    for (int p = 0; p < parts_; ++p) {
+      const auto t0 = Clock::now();
+      job(context, p, parts_);
+      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      sum += ms;
+      longest = std::max(longest, ms);
+    }
+    saved_ms += sum - longest;
+  }
+  double saved_ms = 0;  // since the last reset
+
+ private:
+  int parts_;
+};
+
+// The mapping step's median with the work split `parts` ways: as simulated
+// (TimedSerialSplit) and as run on this machine's cores (hal/os/worker_pool).
+double simulated_median_ms(const Frames& f, const MapConfig& config, int parts) {
+  Mapper mapper(config, f.camera);
+  TimedSerialSplit split(parts);
+  mapper.set_work_split(&split);
+  std::vector<double> ms;
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    const DepthFrameView view{f.depth[i].data(), f.left[i].data(), f.camera.width, f.camera.height};
+    split.saved_ms = 0;
+    const auto t0 = Clock::now();
+    mapper.integrate(view, f.poses[i]);
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() -
+                 split.saved_ms);
+  }
+  return summarise(ms, 0).median_ms;
+}
+
+// The shared parts (frustum walk, block classes, fusion) among worker threads,
+// the rest on the mapping thread; the map is the same for any count (WorkerPool.*).
+void workers_comparison(const Frames& f) {
+  const unsigned cores = std::thread::hardware_concurrency();
+  std::printf(
+      "\nmapping workers (projective 0.5 m, tree line; frustum walk, block classes and fusion\n"
+      "shared, the rest on the mapping thread): ms median, the least of three passes;\n"
+      "simulated = the parts run one after another and timed, a frame counted as if they ran\n"
+      "at once; threads = on this machine's %u cores\n",
+      cores);
+  std::printf("%-8s %-22s %-22s\n", "workers", "simulated (speed-up)", "threads (speed-up)");
+  const MapConfig config = config_for(0.5, 50.0, MapConfig::Integration::kProjective);
+  // Each figure the least disturbed of three passes (the machine is shared).
+  const auto best_of_three = [](auto&& median_ms) {
+    return std::min({median_ms(), median_ms(), median_ms()});
+  };
+  const double one = best_of_three([&] { return time_zonemap(f, config).median_ms; });
+  std::printf("%-8d %-22s %.2f\n", 1, "-", one);
+  for (int parts : {2, 4}) {
+    const double simulated = best_of_three([&] { return simulated_median_ms(f, config, parts); });
+    char threads[64] = "-";
+    if (static_cast<unsigned>(parts) <= cores) {
+      os::WorkerPool pool(os::WorkerOptions{parts, 0, {}});
+      const double ms = best_of_three([&] { return time_zonemap(f, config, &pool).median_ms; });
+      std::snprintf(threads, sizeof threads, "%.2f (%.2fx)", ms, one / ms);
+    }
+    char sim[64];
+    std::snprintf(sim, sizeof sim, "%.2f (%.2fx)", simulated, one / simulated);
+    std::printf("%-8d %-22s %s\n", parts, sim, threads);
+  }
+}
+
 void comparison(int frame_count) {
   std::printf(
       "zonemap-bench: mapping step per frame (sensor model, local grid, blur, fusion), one core,\n"
@@ -461,6 +539,7 @@ void comparison(int frame_count) {
         cell, 100.0 * static_cast<double>(a.same_sign) / static_cast<double>(a.touched), a.touched,
         a.occupied, a.occupied_missed, a.free_without_ray);
   }
+  workers_comparison(f640);
   indoor_comparison(frame_count);
   std::printf(
       "\nscaling (projective, 0.5 m cells): image size at d_max 50 m, then d_max at 640x480\n");
@@ -586,7 +665,8 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
       std::fputs(
-          "usage: zonemap-bench [--frames N] [--full-extent] [--indoor] [--projective CELL_M "
+          "usage: zonemap-bench [--frames N] [--full-extent] [--indoor] [--workers] [--projective "
+          "CELL_M "
           "[--repeat N]]\n"
           "       zonemap-bench --micro [Google Benchmark flags]\n"
           "  (no option)          the table: projective and reference paths against OctoMap when\n"
@@ -594,6 +674,7 @@ int main(int argc, char** argv) {
           "  --frames N           frames per case (default 12)\n"
           "  --full-extent        0.25 m over the whole 80 x 80 x 40 m environment too\n"
           "  --indoor             only the indoor regime (Kinect frames, generated room)\n"
+          "  --workers            only the mapping step with 1, 2 and 4 worker threads\n"
           "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind)\n"
           "  --repeat N           passes over the same frames with --projective\n"
           "  --micro              the per-stage micro benchmarks\n",
@@ -612,14 +693,20 @@ int main(int argc, char** argv) {
   int repeat = 1;
   bool full_extent = false;
   bool indoor_only = false;
+  bool workers_only = false;
   double only_cell = 0.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--full-extent") == 0) full_extent = true;
     if (std::strcmp(argv[i], "--indoor") == 0) indoor_only = true;
+    if (std::strcmp(argv[i], "--workers") == 0) workers_only = true;
     if (i + 1 >= argc) continue;
     if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--projective") == 0) only_cell = std::atof(argv[i + 1]);
     if (std::strcmp(argv[i], "--repeat") == 0) repeat = std::max(1, std::atoi(argv[i + 1]));
+  }
+  if (workers_only) {
+    workers_comparison(make_frames(640, frames));
+    return 0;
   }
   if (only_cell > 0.0) {
     const Frames f = make_frames(640, frames);

@@ -1,0 +1,82 @@
+#include "hal/os/worker_pool.hpp"
+
+#include <algorithm>
+
+#include "hal/os/realtime.hpp"
+
+namespace zonemap::os {
+
+WorkerPool::WorkerPool(const WorkerOptions& options) : parts_(std::max(1, options.parts)) {
+  std::vector<std::string> started(static_cast<std::size_t>(parts_));
+  running_.store(parts_ - 1, std::memory_order_seq_cst);
+  threads_.reserve(static_cast<std::size_t>(parts_ - 1));
+  for (int part = 1; part < parts_; ++part) {
+    const std::size_t slot = static_cast<std::size_t>(part);
+    const int cpu = slot - 1 < options.cpus.size() ? options.cpus[slot - 1] : -1;
+    threads_.emplace_back([this, part, cpu, priority = options.priority, &started, slot] {
+      if (priority > 0 || cpu >= 0) set_thread_realtime(priority, cpu, &started[slot]);
+      // Started: the constructor may go on (and read `started`).
+      if (running_.fetch_sub(1, std::memory_order_seq_cst) == 1) done_.ring();
+      work(part);
+    });
+  }
+  // Every worker has set itself up before the first job (and before `started`
+  // goes out of scope).
+  for (;;) {
+    const std::uint32_t ticket = done_.ticket();
+    if (running_.load(std::memory_order_seq_cst) == 0) break;
+    done_.wait(ticket);
+  }
+  for (const std::string& w : started) {
+    if (!w.empty()) warnings_.push_back("mapping worker: " + w);
+  }
+}
+
+WorkerPool::~WorkerPool() {
+  stopping_.store(true, std::memory_order_seq_cst);
+  start_.ring();
+  for (std::thread& t : threads_) t.join();
+}
+
+void WorkerPool::run(Job job, void* context) {
+  if (parts_ == 1) {
+    job(context, 0, 1);
+    return;
+  }
+  job_ = job;
+  context_ = context;
+  running_.store(parts_ - 1, std::memory_order_seq_cst);
+  round_.fetch_add(1, std::memory_order_seq_cst);  // publishes job_ and context_
+  start_.ring();
+  job(context, 0, parts_);
+  for (;;) {
+    const std::uint32_t ticket = done_.ticket();
+    if (running_.load(std::memory_order_seq_cst) == 0) return;
+    done_.wait(ticket);
+  }
+}
+
+void WorkerPool::work(int part) {
+  std::uint32_t seen = 0;
+  for (;;) {
+    const std::uint32_t ticket = start_.ticket();
+    if (stopping_.load(std::memory_order_seq_cst)) return;
+    const std::uint32_t round = round_.load(std::memory_order_seq_cst);
+    if (round == seen) {
+      start_.wait(ticket);
+      continue;
+    }
+    seen = round;
+    AllocationCounts counted;
+    {
+      const AllocationScope scope;
+      job_(context_, part, parts_);
+      counted = scope.counted();
+    }
+    job_allocations_.fetch_add(counted.allocations, std::memory_order_relaxed);
+    job_frees_.fetch_add(counted.frees, std::memory_order_relaxed);
+    if (running_.fetch_sub(1, std::memory_order_seq_cst) == 1) done_.ring();
+  }
+}
+
+}  // namespace zonemap::os

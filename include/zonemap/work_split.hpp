@@ -1,0 +1,30 @@
+// How the mapping step shares its work among threads without knowing them: the
+// core splits a step into parts that write disjoint cells, and a WorkSplit runs
+// them (hal/os/worker_pool.hpp on the board's cores; inline, one part, when no
+// split is given). The result never depends on the number of parts.
+#pragma once
+
+namespace zonemap {
+
+class WorkSplit {
+ public:
+  using Job = void (*)(void* context, int part, int parts);
+  virtual ~WorkSplit() = default;
+  virtual int parts() const = 0;
+  // Calls job(context, p, parts()) once for every p in [0, parts()), possibly at
+  // the same time on other threads, and returns when all of them have returned.
+  // Allocation-free.
+  virtual void run(Job job, void* context) = 0;
+};
+
+// A part's share of `count` rows, interleaved (rows part, part + parts, ...) so
+// that each part gets near and far rows alike.
+struct RowShare {
+  int first = 0;
+  int step = 1;
+};
+constexpr RowShare share_of(int part, int parts) {
+  return RowShare{part, parts};
+}
+
+}  // namespace zonemap

@@ -143,8 +143,8 @@ void Pipeline::run() {
   // The mapping step's other workers, started once with the pipeline.
   std::optional<os::WorkerPool> workers;
   if (impl_->options.mapping_workers > 1) {
-    workers.emplace(
-        os::WorkerOptions{impl_->options.mapping_workers, impl_->options.priority_mapping, {}});
+    workers.emplace(os::WorkerOptions{impl_->options.mapping_workers,
+                                      impl_->options.priority_mapping, impl_->options.cpu_workers});
     warnings.insert(warnings.end(), workers->warnings().begin(), workers->warnings().end());
     impl_->mapper.set_work_split(&*workers);
   }

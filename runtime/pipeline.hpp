@@ -46,10 +46,11 @@ struct PipelineOptions {
   int priority_ins = 0, cpu_ins = -1;                                       // the live INS thread
   int priority_extraction = 0, cpu_extraction = -1;                         // feature extraction
   // Threads sharing the mapping step's frustum walk, the mapping thread one of
-  // them (the others at priority_mapping, any CPU); the map is the same for any.
+  // them (the others at priority_mapping); the map is the same for any count.
   int mapping_workers = 1;
-  double health_period_s = 1.0;                                     // health to the sinks
-  bool include_ground = false;                                      // ground boxes to the sinks too
+  std::vector<int> cpu_workers;  // worker w (1..) pinned to cpu_workers[w - 1]; absent: any
+  double health_period_s = 1.0;  // health to the sinks
+  bool include_ground = false;   // ground boxes to the sinks too
   Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();  // for body-frame outputs
   bool world_z_up = true;
   SectorConfig sectors;                 // the band and range in which sectors count as observed

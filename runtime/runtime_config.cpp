@@ -37,7 +37,8 @@ bool parse_pipeline_section(const YAML::Node& root, const std::string& path,
                          {"cpu_output", hal::into(&o.cpu_output)},
                          {"cpu_extraction", hal::into(&o.cpu_extraction)},
                          {"cpu_ins", hal::into(&o.cpu_ins)},
-                         {"mapping_workers", hal::into(&o.mapping_workers)}});
+                         {"mapping_workers", hal::into(&o.mapping_workers)},
+                         {"cpu_workers", hal::into(&o.cpu_workers)}});
     });
     if (!read) return false;
   }
@@ -69,6 +70,12 @@ std::string validate_pipeline_section(const PipelineOptions& o) {
   if (o.mapping_workers < 1 || o.mapping_workers > ProjectiveIntegrator::kMaxParts) {
     return "pipeline.mapping_workers must be in [1, " +
            std::to_string(ProjectiveIntegrator::kMaxParts) + "]";
+  }
+  for (const int cpu : o.cpu_workers) {
+    if (!cpu_ok(cpu)) return "pipeline.cpu_workers must each be in [-1, 1023]";
+  }
+  if (o.cpu_workers.size() > static_cast<std::size_t>(o.mapping_workers - 1)) {
+    return "pipeline.cpu_workers names more CPUs than there are workers (mapping_workers - 1)";
   }
   return "";
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "hal/config/yaml_config.hpp"
 #include "runtime/runtime_config.hpp"
@@ -47,6 +48,32 @@ TEST(RuntimeConfig, NoSectionKeepsTheDefaultsAndTheProgramsFields) {
   EXPECT_EQ(options.priority_ins, 40);
   EXPECT_EQ(options.cpu_ins, 2);
   EXPECT_EQ(options.publish_every_frames, 5);
+  ASSERT_TRUE(runtime::load_pipeline_options_text(
+      "pipeline:\n  mapping_workers: 3\n  cpu_workers: [2, 3]\n", "x.yaml", &options, &error))
+      << error;
+  EXPECT_EQ(options.mapping_workers, 3);
+  EXPECT_EQ(options.cpu_workers, (std::vector<int>{2, 3}));
+}
+
+TEST(RuntimeConfig, MappingWorkersAndTheirCpusAreChecked) {
+  runtime::PipelineOptions options;
+  std::string error;
+  EXPECT_FALSE(runtime::load_pipeline_options_text("pipeline:\n  mapping_workers: 0\n", "x.yaml",
+                                                   &options, &error));
+  EXPECT_NE(error.find("x.yaml: pipeline.mapping_workers must be in [1, 8]"), std::string::npos)
+      << error;
+  EXPECT_FALSE(runtime::load_pipeline_options_text("pipeline:\n  mapping_workers: 9\n", "x.yaml",
+                                                   &options, &error));
+  EXPECT_FALSE(runtime::load_pipeline_options_text(
+      "pipeline:\n  mapping_workers: 2\n  cpu_workers: [1, 2]\n", "x.yaml", &options, &error));
+  EXPECT_NE(error.find("more CPUs than there are workers"), std::string::npos) << error;
+  EXPECT_FALSE(runtime::load_pipeline_options_text(
+      "pipeline:\n  mapping_workers: 2\n  cpu_workers: [4096]\n", "x.yaml", &options, &error));
+  EXPECT_NE(error.find("cpu_workers must each be in [-1, 1023]"), std::string::npos) << error;
+  EXPECT_FALSE(runtime::load_pipeline_options_text(
+      "pipeline:\n  mapping_workers: 2\n  cpu_workers: 1\n", "x.yaml", &options, &error));
+  EXPECT_NE(error.find("x.yaml:3: bad value for 'cpu_workers'"), std::string::npos) << error;
+  EXPECT_EQ(options.mapping_workers, 1) << "a refused section changes nothing";
 }
 
 TEST(RuntimeConfig, AWrongKeyOrValueNamesFileAndLine) {

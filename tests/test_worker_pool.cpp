@@ -2,9 +2,12 @@
 // runs once per job, and a map made with 2 or 3 parts is the one made with one,
 // byte for byte, without allocating.
 #include <gtest/gtest.h>
+#include <sched.h>
 
 #include <atomic>
 #include <cstring>
+#include <string>
+#include <thread>
 #include <vector>
 
 #include "hal/config/yaml_config.hpp"
@@ -41,6 +44,26 @@ TEST(WorkerPool, EveryPartRunsOnceInEveryJob) {
   }
   EXPECT_EQ(tally.wrong_parts.load(), 0);
   for (int p = 0; p < 3; ++p) EXPECT_EQ(tally.runs[p].load(), kJobs) << "part " << p;
+}
+
+TEST(WorkerPool, PinnedWorkersRunAndAnAbsentCpuIsAWarning) {
+  // Worker 1 on a CPU this process may use; worker 2 asks for one this machine
+  // lacks: refused, said, and it runs unpinned.
+  cpu_set_t allowed;
+  ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+  int usable = 0;
+  while (!CPU_ISSET(usable, &allowed)) ++usable;  // some CPU is set
+  const int absent = static_cast<int>(std::thread::hardware_concurrency()) + 7;
+  os::WorkerPool pool(os::WorkerOptions{3, 0, {usable, absent}});
+  ASSERT_EQ(pool.warnings().size(), 1u);
+  EXPECT_NE(pool.warnings()[0].find("CPU " + std::to_string(absent)), std::string::npos)
+      << pool.warnings()[0];
+  std::atomic<int> runs{0};
+  const WorkSplit::Job job = [](void* c, int, int) {
+    static_cast<std::atomic<int>*>(c)->fetch_add(1);
+  };
+  for (int j = 0; j < 100; ++j) pool.run(job, &runs);
+  EXPECT_EQ(runs.load(), 300);
 }
 
 // The zones' cells of a mapper, concatenated in zone order.

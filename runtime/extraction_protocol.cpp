@@ -66,7 +66,7 @@ bool Pipeline::Impl::send_snapshot(const ZoneView& zone, bool periodic) {
     ++s.snapshot_waits;
     wait_for_extraction([&] { return snapshot_free.pop(&slot); });
   }
-  snapshots[slot]->capture(zone, snapshot_threshold);
+  snapshots[slot]->capture(zone, snapshot_threshold, &snapshot_trim);
   ExtractionJob job = context_job(ExtractionJob::Kind::kExtract);
   job.slot = slot;
   push_job(job);

@@ -25,6 +25,7 @@ Pipeline::Impl::Impl(hal::FrameSource& frame_source, const PoseTrack* replay, ha
       options(o),
       schedule(m.config().features.extract_every_frames),
       snapshot_threshold(f.occupied_threshold()),
+      snapshot_trim(make_peak_trim(m.config())),
       reintegration_value(f.reintegration_value()) {
   feed.impl = this;
   filled.connect(&acquisition_bell, &mapping_bell);
@@ -66,7 +67,8 @@ std::size_t Pipeline::Impl::reserved_bytes() const {
   return (kFrameSlots + 1) * pixels * 3 +
          kOutputSlots * (boxes * (sizeof(ObstacleBox) + 2 * sizeof(std::uint32_t)) +
                          options.footprint_rects * sizeof(FootprintRect)) +
-         kSnapshotSlots * snapshots.front()->reserved_bytes() + sizeof(Impl);
+         kSnapshotSlots * snapshots.front()->reserved_bytes() + snapshot_trim.reserved_bytes() +
+         sizeof(Impl);
 }
 
 PipelineStats Pipeline::Impl::gathered_stats() const {

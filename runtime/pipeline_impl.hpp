@@ -111,6 +111,7 @@ struct Pipeline::Impl {
   Channel<ReintegrationBox, 1024> reintegration;  // extraction -> mapping
   ExtractionSchedule schedule;
   FusedCell snapshot_threshold;
+  PeakTrim snapshot_trim;  // the mapping thread's: it captures the snapshots
   FusedCell reintegration_value;
   // Mapping-thread state for the feed below.
   double context_time_s = 0.0;

@@ -1,6 +1,7 @@
 #include "zonemap/config.hpp"
 
 #include "zonemap/cell.hpp"
+#include "zonemap/depth_filter.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -23,6 +24,8 @@ std::string validate(const MapConfig& c) {
         << c.d_max_m << ")";
   } else if (c.pixel_step < 1 || c.pixel_step > 64) {
     why << "sensor.pixel_step must be in [1, 64]";
+  } else if (c.depth_filter_radius_px < 0 || c.depth_filter_radius_px > kMaxDepthFilterRadius) {
+    why << "sensor.depth_filter_radius must be in [0, " << kMaxDepthFilterRadius << "] pixels";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
   } else if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {
@@ -61,6 +64,12 @@ std::string validate(const MapConfig& c) {
   } else if (!(c.features.reintegration_units > c.features.occupied_threshold_units) ||
              c.features.reintegration_units > c.saturation_units) {
     why << "features.reintegration must be in (features.occupied_threshold, saturation]";
+  } else if (!(c.features.peak_fraction >= 0.0) || !(c.features.peak_fraction < 1.0) ||
+             (c.features.peak_fraction > 0.0 &&
+              (!(c.features.peak_window_m >= 0.0) ||
+               c.features.peak_window_m > kMaxPeakWindowCells * c.cell_size_m))) {
+    why << "features.peak_fraction must be in [0, 1), features.peak_window_m in [0, "
+        << kMaxPeakWindowCells << " cells]";
   } else if (c.features.merge_gap_cells < 0 || c.features.merge_gap_cells > 8) {
     why << "features.merge_gap_cells must be in [0, 8]";
   } else if (!(c.features.ground_thickness_m >= 0.0) || !(c.features.ground_window_m >= 0.0) ||

@@ -28,6 +28,17 @@ std::int32_t window_sum(const std::int32_t* table, std::size_t stride, int x0, i
          table[static_cast<std::size_t>(y0) * stride + x0];
 }
 
+// Whether the x-y boxes of a and b overlap by more than half the smaller one.
+bool mostly_overlap_xy(const Feature& a, const Feature& b) {
+  const std::int64_t dx = std::min(a.max.x, b.max.x) - std::max(a.min.x, b.min.x) + 1;
+  const std::int64_t dy = std::min(a.max.y, b.max.y) - std::max(a.min.y, b.min.y) + 1;
+  if (dx <= 0 || dy <= 0) return false;
+  const auto area = [](const Feature& f) {
+    return static_cast<std::int64_t>(f.max.x - f.min.x + 1) * (f.max.y - f.min.y + 1);
+  };
+  return 2 * dx * dy > std::min(area(a), area(b));
+}
+
 std::size_t band_table_size(const MapConfig& config) {
   return static_cast<std::size_t>(config.zone_cells[0] + 1) * (config.zone_cells[1] + 1);
 }
@@ -84,6 +95,7 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       region_box_(new RegionBox[kMaxCores]()),
       region_root_(new std::uint16_t[kMaxCores]()),
       scratch_(config.zone_cells),
+      trim_(make_peak_trim(config)),
       d_max_m_(config.d_max_m) {}
 
 void FeatureMap::set_camera(const CameraModel& camera) {
@@ -114,7 +126,7 @@ std::size_t FeatureMap::reserved_bytes() const {
          2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t) +
          (3 * kMaxCores + 1) * sizeof(std::size_t) + columns * sizeof(std::uint32_t) +
          kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes() +
-         columns * 2 * sizeof(std::int16_t) +
+         trim_.reserved_bytes() + columns * 2 * sizeof(std::int16_t) +
          static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * (ground_band_cells_ + 1) *
              sizeof(std::int32_t);
 }
@@ -297,7 +309,7 @@ bool FeatureMap::is_ground_cell(int x, int y, int z) const {
 }
 
 void FeatureMap::extract(const ZoneView& zone) {
-  scratch_.capture(zone, threshold_);
+  scratch_.capture(zone, threshold_, &trim_);
   extract(scratch_);
 }
 
@@ -566,8 +578,9 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
   const int nz = dims_[2];
   CellIndex lo{cell_x(cells[0]), cell_y(cells[0]), cell_z(cells[0])};
   CellIndex hi = lo;
-  // An obstacle resting on the ground layer reaches down to the terrain surface:
-  // its lowest part lies within the ground thickness and was labelled ground.
+  // An obstacle resting on the ground layer reaches down to the terrain surface,
+  // which lies in the terrain cell (the column's lowest occupied one): its lowest
+  // part lies within the ground thickness and was labelled ground.
   int standing_height = INT32_MAX;
   for (std::size_t k = 0; k < count; ++k) {
     const int x = cell_x(cells[k]);
@@ -579,8 +592,8 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
     const int below = z_up_ ? z - 1 : z + 1;
     if (below >= 0 && below < nz && zone.occupied(zone.index(x, y, below)) &&
         is_ground_cell(x, y, below)) {
-      standing_height =
-          std::min(standing_height, terrain_[static_cast<std::size_t>(y) * nx + x] + 1);
+      standing_height = std::min(standing_height,
+                                 static_cast<int>(terrain_[static_cast<std::size_t>(y) * nx + x]));
     }
   }
   if (standing_height != INT32_MAX) {
@@ -721,13 +734,19 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
   }
   const int gap = config_.merge_gap_cells;
   for (std::size_t i = 0; i < capacity_; ++i) parent_[i] = static_cast<std::uint32_t>(i);
-  // Features of one object cut by zone faces touch across the face.
+  // Features of one object cut by zone faces touch across the face. In one
+  // zone, obstacles whose x-y boxes mostly overlap are the faces of one object
+  // seen from opposite sides (a hut flown out and back), apart once the halo
+  // between them is trimmed.
   for (std::size_t i = 0; i < capacity_; ++i) {
     const Feature& a = features_[i];
     if (!a.in_use) continue;
     for (std::size_t j = i + 1; j < capacity_; ++j) {
       const Feature& b = features_[j];
-      if (!b.in_use || b.kind != a.kind || b.zone == a.zone) continue;
+      if (!b.in_use || b.kind != a.kind) continue;
+      if (b.zone == a.zone && !(a.kind == FeatureKind::kObstacle && mostly_overlap_xy(a, b))) {
+        continue;
+      }
       if (a.min.x > b.max.x + gap || b.min.x > a.max.x + gap || a.min.y > b.max.y + gap ||
           b.min.y > a.max.y + gap || a.min.z > b.max.z + gap || b.min.z > a.max.z + gap) {
         continue;

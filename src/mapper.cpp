@@ -109,6 +109,9 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
       camera_(camera),
       local_(config.zone_cells),
       zones_(config),
+      filter_(camera.width, camera.height, config.depth_filter_radius_px,
+              static_cast<float>(camera.match_sigma_px /
+                                 (camera.baseline_m * camera.fx * camera.depth_scale))),
       depths_(config.integration == MapConfig::Integration::kProjective ? camera.width : 1,
               config.integration == MapConfig::Integration::kProjective ? camera.height : 1),
       projective_(config, camera),
@@ -206,6 +209,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   const CellIndex origin = zones_.environment_origin(camera_cell, camera_.world_z_up);
   report.zones_allocated = zones_.move_environment(origin);
   local_.reset(origin);
+  filter_.begin(frame.depth);
   sample_hits_below(frame, world_T_camera, origin, &report);
 
   // Ray geometry in grid units relative to the local grid's minimum corner.
@@ -245,7 +249,7 @@ void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
   const std::uint16_t near_last = raw_near_last_, far_last = raw_far_last_;
   std::int32_t hit = 0, near = 0, far = 0, missing = 0;
   for (int v = 0; v < frame.height; ++v) {
-    const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
+    const std::uint16_t* depth_row = filter_.row(v);
     std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
     const RowCounts counts = convert_row(depth_row, out, frame.width, near_last, far_last);
     const std::uint16_t row_missing = counts.missing, row_near = counts.near, row_far = counts.far;
@@ -282,7 +286,7 @@ void Mapper::integrate_reference(const DepthFrameView& frame, const Eigen::Vecto
   const bool sky_filter = config_.sky.enabled && frame.left != nullptr;
   const int step = config_.pixel_step;
   for (int v = 0; v < frame.height; v += step) {
-    const std::uint16_t* depth_row = frame.depth + static_cast<std::size_t>(v) * frame.width;
+    const std::uint16_t* depth_row = filter_.row(v);
     bool sky_known = false;
     for (int u = 0; u < frame.width; u += step) {
       RayProfile ray;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 
 namespace zonemap {
@@ -14,13 +15,15 @@ ZoneSnapshot::ZoneSnapshot(const std::array<int, 3>& dims)
       cells_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
              static_cast<std::size_t>(dims[2])),
       occupied_(new std::uint64_t[(cells_ + 63) / 64]()),
-      rank_(new std::uint32_t[(cells_ + 63) / 64]()),
+      rank_(new std::uint32_t[((cells_ + 63) / 64 + kRankWords - 1) / kRankWords]()),
       level_capacity_(cells_ / 16),
       levels_(new std::uint8_t[level_capacity_]()),
       column_known_(new std::uint8_t[static_cast<std::size_t>(dims[0]) * dims[1]]()) {}
 
 std::size_t ZoneSnapshot::reserved_bytes() const {
-  return (cells_ + 63) / 64 * (sizeof(std::uint64_t) + sizeof(std::uint32_t)) + level_capacity_ +
+  const std::size_t words = (cells_ + 63) / 64;
+  return words * sizeof(std::uint64_t) +
+         (words + kRankWords - 1) / kRankWords * sizeof(std::uint32_t) + level_capacity_ +
          static_cast<std::size_t>(dims_[0]) * dims_[1];
 }
 
@@ -40,7 +43,8 @@ std::uint64_t pack_flags(const std::uint8_t* flags) {
 
 }  // namespace
 
-void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold) {
+void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold,
+                           const PeakTrim* trim) {
   key_ = zone.key;
   origin_ = zone.origin;
   const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
@@ -79,6 +83,7 @@ void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold) {
     known[column] |= static_cast<std::uint8_t>(cells[i] != 0);
     if (++column == columns) column = 0;
   }
+  if (trim != nullptr && trim->enabled()) trim->apply(zone, occupied_.get());
   capture_levels(cells);
 }
 
@@ -88,7 +93,7 @@ void ZoneSnapshot::capture_levels(const FusedCell* cells) {
   levels_complete_ = true;
   const std::size_t words = (cells_ + 63) / 64;
   for (std::size_t w = 0; w < words; ++w) {
-    rank_[w] = static_cast<std::uint32_t>(rank);
+    if (w % kRankWords == 0) rank_[w / kRankWords] = static_cast<std::uint32_t>(rank);
     for (std::uint64_t bits = occupied_[w]; bits != 0; bits &= bits - 1u) {
       if (rank >= level_capacity_) {
         levels_complete_ = false;
@@ -97,6 +102,105 @@ void ZoneSnapshot::capture_levels(const FusedCell* cells) {
       const std::size_t i = w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
       levels_[rank++] = static_cast<std::uint8_t>(std::min(cells[i] / kLevelStep, 255));
     }
+  }
+}
+
+namespace {
+
+// A fused value as a coarse level (ZoneSnapshot::kLevelStep units, 0..255).
+inline std::uint8_t level_of(FusedCell value) {
+  return static_cast<std::uint8_t>(std::clamp(value / ZoneSnapshot::kLevelStep, 0, 255));
+}
+
+}  // namespace
+
+PeakTrim::PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy)
+    : dims_(dims),
+      fraction_256_(static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * 256.0))),
+      radius_(std::max(radius_xy, 0)) {
+  if (enabled()) {
+    planes_.reset(new std::uint8_t[4 * static_cast<std::size_t>(dims[0]) * dims[1]]());
+  }
+}
+
+PeakTrim make_peak_trim(const MapConfig& config) {
+  return PeakTrim(
+      config.zone_cells, config.features.peak_fraction,
+      static_cast<int>(std::lround(config.features.peak_window_m / config.cell_size_m)));
+}
+
+std::size_t PeakTrim::reserved_bytes() const {
+  return enabled() ? 4 * static_cast<std::size_t>(dims_[0]) * dims_[1] : 0;
+}
+
+void PeakTrim::plane_maxima(const ZoneView& zone, int z, std::uint8_t* out) const {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const std::size_t plane = static_cast<std::size_t>(nx) * ny;
+  std::uint8_t* pass = planes_.get() + 3 * plane;
+  const FusedCell* cells = zone.cells + static_cast<std::size_t>(z) * plane;
+  const int r = radius_;
+  // Along x: each row's levels, then the maximum over the window (rows vectorise).
+  for (int y = 0; y < ny; ++y) {
+    const FusedCell* in = cells + static_cast<std::size_t>(y) * nx;
+    std::uint8_t* row = pass + static_cast<std::size_t>(y) * nx;
+    std::uint8_t* levels = out + static_cast<std::size_t>(y) * nx;  // out as scratch
+    for (int x = 0; x < nx; ++x) levels[x] = level_of(in[x]);
+    for (int x = 0; x < nx; ++x) row[x] = levels[x];
+    for (int k = 1; k <= r; ++k) {
+      for (int x = 0; x + k < nx; ++x) row[x] = std::max(row[x], levels[x + k]);
+      for (int x = k; x < nx; ++x) row[x] = std::max(row[x], levels[x - k]);
+    }
+  }
+  // Along y: whole rows at a time.
+  for (int y = 0; y < ny; ++y) {
+    std::uint8_t* row = out + static_cast<std::size_t>(y) * nx;
+    const int y0 = std::max(0, y - r);
+    const int y1 = std::min(ny - 1, y + r);
+    std::copy_n(pass + static_cast<std::size_t>(y0) * nx, nx, row);
+    for (int j = y0 + 1; j <= y1; ++j) {
+      const std::uint8_t* other = pass + static_cast<std::size_t>(j) * nx;
+      for (int x = 0; x < nx; ++x) row[x] = std::max(row[x], other[x]);
+    }
+  }
+}
+
+void PeakTrim::apply(const ZoneView& zone, std::uint64_t* occupied) const {
+  const int nz = dims_[2];
+  const std::size_t plane = static_cast<std::size_t>(dims_[0]) * dims_[1];
+  const auto ring = [&](int z) { return planes_.get() + static_cast<std::size_t>(z % 3) * plane; };
+  const auto has_occupied = [&](int z) {
+    const std::size_t first = static_cast<std::size_t>(z) * plane;
+    const std::size_t last = first + plane - 1;
+    for (std::size_t w = first >> 6; w <= last >> 6; ++w) {
+      if (occupied[w] != 0) return true;
+    }
+    return false;
+  };
+  // Planes without occupied cells are skipped: their maxima are never asked for,
+  // and what they hold under the threshold cannot outweigh an occupied cell.
+  bool below = false;
+  bool here = nz > 0 && has_occupied(0);
+  if (here) plane_maxima(zone, 0, ring(0));
+  for (int z = 0; z < nz; ++z) {
+    const bool above = z + 1 < nz && has_occupied(z + 1);
+    if (above) plane_maxima(zone, z + 1, ring(z + 1));
+    if (here) {
+      const std::size_t first = static_cast<std::size_t>(z) * plane;
+      const FusedCell* cells = zone.cells + first;
+      for (std::size_t j = 0; j < plane; ++j) {
+        const std::size_t i = first + j;
+        if (((occupied[i >> 6] >> (i & 63)) & 1u) == 0) continue;
+        std::uint8_t peak = ring(z)[j];
+        if (below) peak = std::max(peak, ring(z - 1)[j]);
+        if (above) peak = std::max(peak, ring(z + 1)[j]);
+        if (256 * level_of(cells[j]) < fraction_256_ * peak) {
+          occupied[i >> 6] &= ~(std::uint64_t{1} << (i & 63));
+        }
+      }
+    }
+    below = here;
+    here = above;
   }
 }
 

@@ -173,7 +173,7 @@ TEST(FeatureExtraction, PostOnAPlaneIsOneObstacleAndGround) {
   EXPECT_EQ(obstacles[0]->max.x, 15);
   EXPECT_EQ(obstacles[0]->min.y, 12);
   EXPECT_EQ(obstacles[0]->max.y, 12);
-  EXPECT_EQ(obstacles[0]->min.z, 3) << "stands on the terrain (z = 2)";
+  EXPECT_EQ(obstacles[0]->min.z, 2) << "reaches into the terrain cell (z = 2), where the ground is";
   EXPECT_EQ(obstacles[0]->max.z, 9);
   EXPECT_EQ(ground[0]->min, (CellIndex{0, 0, 2}));
   EXPECT_EQ(ground[0]->max, (CellIndex{29, 29, 3}));
@@ -217,7 +217,7 @@ TEST(FeatureGround, AMeasuredBandIsGroundAndThePostStandsOnIt) {
   map.extract(zone.view);
   const auto obstacles = features_of(map, FeatureKind::kObstacle);
   ASSERT_EQ(obstacles.size(), 1u);
-  EXPECT_EQ(obstacles[0]->min, (CellIndex{15, 12, 3})) << "down to the terrain (z = 2)";
+  EXPECT_EQ(obstacles[0]->min, (CellIndex{15, 12, 2})) << "down into the terrain cell (z = 2)";
   EXPECT_EQ(obstacles[0]->max, (CellIndex{15, 12, 11}));
   ASSERT_EQ(features_of(map, FeatureKind::kGround).size(), 1u);
   EXPECT_EQ(features_of(map, FeatureKind::kGround)[0]->max.z, 6)
@@ -241,7 +241,7 @@ TEST(FeatureGround, RunsOfMixedHeightsAreNotABand) {
   map.extract(zone.view);
   const auto obstacles = features_of(map, FeatureKind::kObstacle);
   ASSERT_EQ(obstacles.size(), 1u);
-  EXPECT_EQ(obstacles[0]->min, (CellIndex{11, 0, 3}));
+  EXPECT_EQ(obstacles[0]->min, (CellIndex{11, 0, 2}));
   EXPECT_EQ(obstacles[0]->max, (CellIndex{13, 29, 5}));
 }
 

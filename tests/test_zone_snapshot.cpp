@@ -2,6 +2,7 @@
 // one byte per column), checked cell by cell against the zone.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -44,6 +45,80 @@ TEST(ZoneSnapshot, BitsAndColumnsMatchTheZoneCellByCell) {
       EXPECT_EQ(snapshot.column_known(x, y), known) << x << "," << y;
     }
   EXPECT_FALSE(snapshot.column_known(3, 2));
+}
+
+// Brute force: the largest level within ±r in x and y and ±1 in z.
+int peak_level(const std::vector<FusedCell>& cells, const ZoneView& view, int x, int y, int z,
+               int r) {
+  int peak = 0;
+  for (int k = std::max(0, z - 1); k <= std::min(view.dims[2] - 1, z + 1); ++k)
+    for (int j = std::max(0, y - r); j <= std::min(view.dims[1] - 1, y + r); ++j)
+      for (int i = std::max(0, x - r); i <= std::min(view.dims[0] - 1, x + r); ++i)
+        peak = std::max(peak, std::clamp(cells[view.index(i, j, k)] / 16, 0, 255));
+  return peak;
+}
+
+TEST(PeakTrim, KeepsTheCellsHoldingTheFractionOfTheirNeighbourhoodsPeak) {
+  // Odd sizes: planes do not start on a word, the last word is partial.
+  const std::array<int, 3> dims{17, 9, 7};
+  const std::size_t n = 17 * 9 * 7;
+  std::vector<FusedCell> cells(n);
+  sim::Rng rng(5);
+  for (std::size_t i = 0; i < n; ++i) {
+    cells[i] = rng.uniform() < 0.5 ? 0 : static_cast<FusedCell>(rng.uniform() * 3000 - 500);
+  }
+  ZoneView view{{0, 0, 0}, {0, 0, 0}, dims, cells.data()};
+  for (const int radius : {0, 1, 3}) {
+    const PeakTrim trim(dims, 0.5, radius);
+    ZoneSnapshot snapshot(dims);
+    snapshot.capture(view, 96, &trim);
+    int kept = 0, trimmed = 0;
+    for (int z = 0; z < 7; ++z)
+      for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 17; ++x) {
+          const std::size_t i = view.index(x, y, z);
+          const bool expected =
+              cells[i] > 96 && 2 * (cells[i] / 16) >= peak_level(cells, view, x, y, z, radius);
+          ASSERT_EQ(snapshot.occupied(i), expected) << x << "," << y << "," << z << " r " << radius;
+          kept += expected ? 1 : 0;
+          trimmed += cells[i] > 96 && !expected ? 1 : 0;
+        }
+    EXPECT_GT(kept, 20) << radius;
+    if (radius > 0) {
+      EXPECT_GT(trimmed, 20) << radius;
+    }
+  }
+}
+
+TEST(PeakTrim, TheHaloGoesAWeakThingApartStays) {
+  // A wall (x = 10, 20 units) with the blur's halo in front and behind it
+  // (5 units: occupied, a quarter of the wall), and a weak post (3 units) 4 cells
+  // off: the halo goes, the wall and the post stay. Fraction 0 keeps everything.
+  const std::array<int, 3> dims{24, 12, 6};
+  std::vector<FusedCell> cells(24 * 12 * 6, 0);
+  ZoneView view{{0, 0, 0}, {0, 0, 0}, dims, cells.data()};
+  for (int z = 0; z < 6; ++z)
+    for (int y = 0; y < 12; ++y) {
+      cells[view.index(10, y, z)] = 20 * 64;
+      cells[view.index(9, y, z)] = 5 * 64;
+      cells[view.index(11, y, z)] = 5 * 64;
+    }
+  for (int z = 0; z < 6; ++z) cells[view.index(15, 6, z)] = 3 * 64;
+  const PeakTrim trim(dims, 0.5, 3);
+  ZoneSnapshot snapshot(dims);
+  snapshot.capture(view, 96, &trim);
+  for (int z = 0; z < 6; ++z) {
+    for (int y = 0; y < 12; ++y) {
+      EXPECT_TRUE(snapshot.occupied(view.index(10, y, z)));
+      EXPECT_FALSE(snapshot.occupied(view.index(9, y, z)));
+      EXPECT_FALSE(snapshot.occupied(view.index(11, y, z)));
+    }
+    EXPECT_TRUE(snapshot.occupied(view.index(15, 6, z))) << "the post is 5 cells from the wall";
+  }
+  const PeakTrim off(dims, 0.0, 3);
+  EXPECT_FALSE(off.enabled());
+  snapshot.capture(view, 96, &off);
+  EXPECT_TRUE(snapshot.occupied(view.index(9, 0, 0)));
 }
 
 }  // namespace

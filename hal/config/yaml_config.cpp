@@ -43,6 +43,7 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
          {"sensor", section("sensor", {{"d_min_m", into(&c.d_min_m)},
                                        {"d_max_m", into(&c.d_max_m)},
                                        {"pixel_step", into(&c.pixel_step)},
+                                       {"depth_filter_radius", into(&c.depth_filter_radius_px)},
                                        {"integration", integration}})},
          {"blur", section("blur", {{"radius", into(&c.blur_radius)}})},
          {"fusion", section("fusion", {{"saturation", into(&c.saturation_units)},
@@ -70,7 +71,9 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                {"reintegration", into(&c.features.reintegration_units)},
                                {"merge_gap_cells", into(&c.features.merge_gap_cells)},
                                {"split_touching", into(&c.features.split_touching)},
-                               {"core_min_cells", into(&c.features.core_min_cells)}})},
+                               {"core_min_cells", into(&c.features.core_min_cells)},
+                               {"peak_fraction", into(&c.features.peak_fraction)},
+                               {"peak_window_m", into(&c.features.peak_window_m)}})},
          {"pipeline", [](const YAML::Node&) {}},  // the runtime's: runtime/runtime_config
          {"ground",
           section("ground", {{"enabled", into(&c.features.ground_enabled)},

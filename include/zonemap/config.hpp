@@ -41,6 +41,12 @@ struct FeatureConfig {
   // nearest core. false: never split (the paper's).
   bool split_touching = true;
   int core_min_cells = 8;
+  // Only cells holding at least peak_fraction of the largest fused value within
+  // peak_window_m in x and y (and a cell in z) belong to objects (PeakTrim in
+  // zone_snapshot.hpp): the halo that far views and the blur leave around a
+  // surface stays out of the boxes. 0: every occupied cell (the paper's).
+  double peak_fraction = 0.0;
+  double peak_window_m = 1.5;
   // Ground: a column's terrain height is the lowest occupied cell, taken as the
   // minimum over a window, where at least min_coverage of the window's observed
   // columns (any cell known free or occupied) have an occupied cell: a surface, not
@@ -58,7 +64,8 @@ struct FeatureConfig {
   double ground_band_percentile = 0.0;
   double ground_max_thickness_m = 4.0;
 };
-inline constexpr int kMaxGroundBandCells = 32;  // bounds the band's per-height tables
+inline constexpr int kMaxGroundBandCells = 32;
+inline constexpr int kMaxPeakWindowCells = 16;  // bounds the band's per-height tables
 
 struct MapConfig {
   double cell_size_m = 1.0;
@@ -74,6 +81,10 @@ struct MapConfig {
   double d_min_m = 8.0;
   double d_max_m = 50.0;
   int pixel_step = 1;  // 1 maps every pixel, as the paper does
+  // Past the paper: each depth averaged with the depths of its surface around it
+  // (DepthFilter, 2r + 1 taps along the row, then the column) before the sensor
+  // model. 0: every depth as measured (the paper's).
+  int depth_filter_radius_px = 0;
   // How a frame is drawn into the local grid: walking every pixel's ray (the
   // reference) or visiting every frustum cell once (projective, fast).
   enum class Integration { kReference, kProjective };

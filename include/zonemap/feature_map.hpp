@@ -284,6 +284,7 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<RegionBox[]> region_box_;       // per region, x-y cells
   std::unique_ptr<std::uint16_t[]> region_root_;  // union-find over regions
   ZoneSnapshot scratch_;                          // extract(ZoneView) goes through it
+  PeakTrim trim_;                                 // ... keeping the cells it keeps
 
   double time_s_ = 0.0;
   Eigen::Vector3d vehicle_m_ = Eigen::Vector3d::Zero();

@@ -12,6 +12,7 @@
 
 #include "zonemap/camera.hpp"
 #include "zonemap/config.hpp"
+#include "zonemap/depth_filter.hpp"
 #include "zonemap/depth_range_table.hpp"
 #include "zonemap/local_grid.hpp"
 #include "zonemap/projective_integrator.hpp"
@@ -86,7 +87,7 @@ class Mapper {
   const CameraModel& camera() const { return camera_; }
   // The projective path's depth range table and block flags.
   std::size_t depth_table_bytes() const {
-    return depths_.reserved_bytes() + projective_.reserved_bytes() +
+    return depths_.reserved_bytes() + projective_.reserved_bytes() + filter_.reserved_bytes() +
            3 * static_cast<std::size_t>(camera_.width);
   }
   std::size_t reserved_bytes() const {
@@ -136,6 +137,7 @@ class Mapper {
   CameraModel camera_;
   LocalGrid local_;
   ZoneMap zones_;
+  DepthFilter filter_;  // rows as the sensor model reads them
   DepthRangeTable depths_;
   ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;

@@ -13,16 +13,49 @@
 #include <memory>
 
 #include "zonemap/cell.hpp"
+#include "zonemap/config.hpp"
 #include "zonemap/zone_map.hpp"
 
 namespace zonemap {
+
+// Past the paper: which occupied cells belong to objects. Far views smear a
+// surface's occupancy over Δd along their rays and the blur widens it by a cell
+// on every side; that halo stays above the occupied threshold, joining objects
+// across narrow gaps. Kept: cells holding at least `fraction` of the largest
+// fused value within radius_xy cells in x and y and one cell in z (a halo is
+// weaker than the surface it surrounds). fraction 0: every occupied cell.
+// Scratch for one capturing thread: three planes of x-y maxima and one pass
+// plane, as coarse levels (value / 16); reserved at construction.
+class PeakTrim {
+ public:
+  PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy);
+
+  bool enabled() const { return fraction_256_ > 0; }
+  // Clears the bits (cell i: bit i % 64 of word i / 64) of the occupied cells of
+  // `zone` below the fraction of their neighbourhood's peak.
+  void apply(const ZoneView& zone, std::uint64_t* occupied) const;
+  std::size_t reserved_bytes() const;
+
+ private:
+  // Plane z's levels, maximised over ±radius_xy in x, then in y, into `out`.
+  void plane_maxima(const ZoneView& zone, int z, std::uint8_t* out) const;
+  std::array<int, 3> dims_;
+  int fraction_256_;  // fraction in 1/256
+  int radius_;
+  std::unique_ptr<std::uint8_t[]>
+      planes_;  // three planes (z - 1, z, z + 1 by z % 3), then the pass plane
+};
+
+// The trim a configuration names (features.peak_fraction, peak_window_m).
+PeakTrim make_peak_trim(const MapConfig& config);
 
 class ZoneSnapshot {
  public:
   explicit ZoneSnapshot(const std::array<int, 3>& dims);
 
-  // Copies what extraction needs of `zone` (same dims) at this instant.
-  void capture(const ZoneView& zone, FusedCell occupied_threshold);
+  // Copies what extraction needs of `zone` (same dims) at this instant; with
+  // `trim`, only the occupied cells it keeps.
+  void capture(const ZoneView& zone, FusedCell occupied_threshold, const PeakTrim* trim = nullptr);
 
   bool occupied(std::size_t i) const { return (occupied_[i >> 6] >> (i & 63)) & 1u; }
   // The fused value of an occupied cell, coarsely (value / kLevelStep, at most
@@ -32,7 +65,10 @@ class ZoneSnapshot {
   std::uint8_t level(std::size_t i) const {
     const std::size_t w = i >> 6;
     const std::uint64_t below = occupied_[w] & ((std::uint64_t{1} << (i & 63)) - 1u);
-    const std::size_t rank = rank_[w] + static_cast<std::size_t>(std::popcount(below));
+    std::size_t rank = rank_[w / kRankWords] + static_cast<std::size_t>(std::popcount(below));
+    for (std::size_t k = w - w % kRankWords; k < w; ++k) {
+      rank += static_cast<std::size_t>(std::popcount(occupied_[k]));
+    }
     return rank < level_capacity_ ? levels_[rank] : std::uint8_t{0};
   }
   bool levels_complete() const { return levels_complete_; }
@@ -61,7 +97,10 @@ class ZoneSnapshot {
   ZoneKey key_;
   CellIndex origin_;
   std::unique_ptr<std::uint64_t[]> occupied_;
-  std::unique_ptr<std::uint32_t[]> rank_;   // per word: occupied cells before it
+  // Per kRankWords words: occupied cells before them (the words between counted
+  // at look-up: a quarter of the memory of a count per word).
+  static constexpr std::size_t kRankWords = 4;
+  std::unique_ptr<std::uint32_t[]> rank_;
   std::size_t level_capacity_;              // a sixteenth of the cells
   std::unique_ptr<std::uint8_t[]> levels_;  // per occupied cell, in cell order
   bool levels_complete_ = true;

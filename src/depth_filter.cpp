@@ -15,16 +15,16 @@ DepthFilter::DepthFilter(int width, int height, int radius, float resolution_per
   const auto w = static_cast<std::size_t>(width_);
   ring_.reset(new std::uint16_t[static_cast<std::size_t>(ring_rows_) * w]());
   out_.reset(new std::uint16_t[w]());
-  gate_.reset(new float[w]());
-  sum_.reset(new std::uint32_t[w]());
-  count_.reset(new std::uint32_t[w]());
+  gate_.reset(new std::int32_t[w]());
+  sum_.reset(new std::int32_t[w]());
+  count_.reset(new std::int32_t[w]());
 }
 
 std::size_t DepthFilter::reserved_bytes() const {
   if (radius_ == 0) return 0;
   const auto w = static_cast<std::size_t>(width_);
-  return w * (static_cast<std::size_t>(ring_rows_ + 1) * sizeof(std::uint16_t) + sizeof(float) +
-              2 * sizeof(std::uint32_t));
+  return w * (static_cast<std::size_t>(ring_rows_ + 1) * sizeof(std::uint16_t) +
+              3 * sizeof(std::int32_t));
 }
 
 void DepthFilter::begin(const std::uint16_t* depth) {
@@ -47,22 +47,44 @@ const std::uint16_t* DepthFilter::row(int v) {
 
 namespace {
 
-// Adds `tap` to the sums where it is a measurement within the centre's gate:
-// |tap - centre| <= gate, in float (exact for 16-bit codes), branch-free so that
-// the loops over a row vectorise.
-inline void add_tap(std::uint16_t centre, float gate, std::uint16_t tap, std::uint32_t* sum,
-                    std::uint32_t* count) {
-  const float diff = static_cast<float>(tap) - static_cast<float>(centre);
-  const std::uint32_t take = (tap != 0) & (diff <= gate) & (-diff <= gate);
-  *sum += take * tap;
-  *count += take;
+// Adds each tap to its centre's sums where it is a measurement within the
+// centre's gate (|tap - centre| <= gate, codes), branch-free in 32-bit lanes so
+// that the loop over a row vectorises.
+inline void add_taps(const std::uint16_t* __restrict centre, const std::int32_t* __restrict gate,
+                     const std::uint16_t* __restrict tap, std::int32_t* __restrict sum,
+                     std::int32_t* __restrict count, int n) {
+  for (int u = 0; u < n; ++u) {
+    const std::int32_t t = tap[u];
+    const std::int32_t diff = t - static_cast<std::int32_t>(centre[u]);
+    const std::int32_t take =
+        static_cast<std::int32_t>((t != 0) & (diff <= gate[u]) & (-diff <= gate[u]));
+    sum[u] += take * t;
+    count[u] += take;
+  }
+}
+
+// The centres' gates (eq. 1 at each centre's depth, codes) and zeroed sums.
+inline void start_row(const std::uint16_t* __restrict centre, float gate_per_code2,
+                      std::int32_t* __restrict gate, std::int32_t* __restrict sum,
+                      std::int32_t* __restrict count, int n) {
+  for (int u = 0; u < n; ++u) {
+    const auto c = static_cast<float>(centre[u]);
+    gate[u] = static_cast<std::int32_t>(std::min(gate_per_code2 * c * c, 65535.0f));
+    sum[u] = 0;
+    count[u] = 0;
+  }
 }
 
 // The mean of the taps taken, rounded; 0 where the centre is missing (it always
 // takes itself, so count > 0 elsewhere).
-inline std::uint16_t gated_mean(std::uint16_t centre, std::uint32_t sum, std::uint32_t count) {
-  const float mean = static_cast<float>(sum) / static_cast<float>(std::max(count, 1u));
-  return centre == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(mean + 0.5f);
+inline void gated_means(const std::uint16_t* __restrict centre, const std::int32_t* __restrict sum,
+                        const std::int32_t* __restrict count, std::uint16_t* __restrict out,
+                        int n) {
+  for (int u = 0; u < n; ++u) {
+    const float mean =
+        static_cast<float>(sum[u]) / static_cast<float>(std::max(count[u], std::int32_t{1}));
+    out[u] = centre[u] == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(mean + 0.5f);
+  }
 }
 
 }  // namespace
@@ -70,43 +92,30 @@ inline std::uint16_t gated_mean(std::uint16_t centre, std::uint32_t sum, std::ui
 void DepthFilter::filter_along_row(const std::uint16_t* in, std::uint16_t* out) const {
   const int w = width_;
   const int r = radius_;
-  float* gate = gate_.get();
-  std::uint32_t* sum = sum_.get();
-  std::uint32_t* count = count_.get();
-  for (int u = 0; u < w; ++u) {
-    const auto c = static_cast<float>(in[u]);
-    gate[u] = gate_per_code2_ * c * c;  // eq. (1) at the centre's depth
-    sum[u] = 0;
-    count[u] = 0;
-  }
+  std::int32_t* gate = gate_.get();
+  std::int32_t* sum = sum_.get();
+  std::int32_t* count = count_.get();
+  start_row(in, gate_per_code2_, gate, sum, count, w);
   for (int k = -r; k <= r; ++k) {
     // Centres whose tap u + k lies in the row.
     const int begin = std::max(0, -k);
     const int end = std::min(w, w - k);
-    for (int u = begin; u < end; ++u) add_tap(in[u], gate[u], in[u + k], &sum[u], &count[u]);
+    add_taps(in + begin, gate + begin, in + begin + k, sum + begin, count + begin, end - begin);
   }
-  for (int u = 0; u < w; ++u) out[u] = gated_mean(in[u], sum[u], count[u]);
+  gated_means(in, sum, count, out, w);
 }
 
 void DepthFilter::filter_along_column(int v, std::uint16_t* out) const {
   const int w = width_;
   const std::uint16_t* centre = ring_row(v);
-  float* gate = gate_.get();
-  std::uint32_t* sum = sum_.get();
-  std::uint32_t* count = count_.get();
-  for (int u = 0; u < w; ++u) {
-    const auto c = static_cast<float>(centre[u]);
-    gate[u] = gate_per_code2_ * c * c;
-    sum[u] = 0;
-    count[u] = 0;
-  }
+  std::int32_t* gate = gate_.get();
+  std::int32_t* sum = sum_.get();
+  std::int32_t* count = count_.get();
+  start_row(centre, gate_per_code2_, gate, sum, count, w);
   const int first = std::max(0, v - radius_);
   const int last = std::min(height_ - 1, v + radius_);
-  for (int t = first; t <= last; ++t) {
-    const std::uint16_t* tap = ring_row(t);
-    for (int u = 0; u < w; ++u) add_tap(centre[u], gate[u], tap[u], &sum[u], &count[u]);
-  }
-  for (int u = 0; u < w; ++u) out[u] = gated_mean(centre[u], sum[u], count[u]);
+  for (int t = first; t <= last; ++t) add_taps(centre, gate, ring_row(t), sum, count, w);
+  gated_means(centre, sum, count, out, w);
 }
 
 }  // namespace zonemap

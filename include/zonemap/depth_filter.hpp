@@ -55,9 +55,9 @@ class DepthFilter {
   int rows_done_ = 0;  // rows of the frame filtered along the row so far
   std::unique_ptr<std::uint16_t[]> ring_;
   std::unique_ptr<std::uint16_t[]> out_;
-  std::unique_ptr<float[]> gate_;  // per pixel of a row: the centre's gate, codes
-  std::unique_ptr<std::uint32_t[]> sum_;
-  std::unique_ptr<std::uint32_t[]> count_;
+  std::unique_ptr<std::int32_t[]> gate_;  // per pixel of a row: the centre's gate, codes
+  std::unique_ptr<std::int32_t[]> sum_;
+  std::unique_ptr<std::int32_t[]> count_;
 };
 
 }  // namespace zonemap

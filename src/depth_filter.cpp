@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include "simd_u16.hpp"
 
 namespace zonemap {
 
@@ -10,21 +14,23 @@ DepthFilter::DepthFilter(int width, int height, int radius, float resolution_per
       height_(std::max(height, 1)),
       radius_(std::clamp(radius, 0, kMaxDepthFilterRadius)),
       ring_rows_(2 * radius_ + 1),
-      gate_per_code2_(kDepthFilterGate * resolution_per_code2) {
+      gate_per_code2_(kDepthFilterGate * resolution_per_code2),
+      gate_cap_(static_cast<float>(32767 / ring_rows_)),
+      centre_cap_(static_cast<std::uint16_t>(
+          gate_per_code2_ > 0.0f
+              ? std::min(65535.0, std::ceil(std::sqrt(static_cast<double>(gate_cap_) /
+                                                      static_cast<double>(gate_per_code2_))))
+              : 65535.0)) {
   if (radius_ == 0) return;
   const auto w = static_cast<std::size_t>(width_);
   ring_.reset(new std::uint16_t[static_cast<std::size_t>(ring_rows_) * w]());
   out_.reset(new std::uint16_t[w]());
-  gate_.reset(new std::int32_t[w]());
-  sum_.reset(new std::int32_t[w]());
-  count_.reset(new std::int32_t[w]());
 }
 
 std::size_t DepthFilter::reserved_bytes() const {
   if (radius_ == 0) return 0;
   const auto w = static_cast<std::size_t>(width_);
-  return w * (static_cast<std::size_t>(ring_rows_ + 1) * sizeof(std::uint16_t) +
-              3 * sizeof(std::int32_t));
+  return w * static_cast<std::size_t>(ring_rows_ + 1) * sizeof(std::uint16_t);
 }
 
 void DepthFilter::begin(const std::uint16_t* depth) {
@@ -47,44 +53,64 @@ const std::uint16_t* DepthFilter::row(int v) {
 
 namespace {
 
-// Adds each tap to its centre's sums where it is a measurement within the
-// centre's gate (|tap - centre| <= gate, codes), branch-free in 32-bit lanes so
-// that the loop over a row vectorises.
-inline void add_taps(const std::uint16_t* __restrict centre, const std::int32_t* __restrict gate,
-                     const std::uint16_t* __restrict tap, std::int32_t* __restrict sum,
-                     std::int32_t* __restrict count, int n) {
-  for (int u = 0; u < n; ++u) {
-    const std::int32_t t = tap[u];
-    const std::int32_t diff = t - static_cast<std::int32_t>(centre[u]);
-    const std::int32_t take =
-        static_cast<std::int32_t>((t != 0) & (diff <= gate[u]) & (-diff <= gate[u]));
-    sum[u] += take * t;
-    count[u] += take;
+using simd::U16x8;
+using I16x8 = std::int16_t __attribute__((vector_size(16)));
+using F32x8 = float __attribute__((vector_size(32)));
+using I32x8 = std::int32_t __attribute__((vector_size(32)));
+
+// Eight centres at once: each tap within its centre's gate (a measurement,
+// |tap - centre| <= gate) adds tap - centre to the sum and one to the count.
+// Sums stay within 16 bits: the gate is at most 32767 / (2r + 1) codes.
+inline void accumulate(U16x8 centre, U16x8 gate, U16x8 tap, I16x8* sum, I16x8* count) {
+  const U16x8 distance = simd::saturating_sub(tap, centre) | simd::saturating_sub(centre, tap);
+  const I16x8 take = (simd::min_u16(distance, gate) == distance) & (tap != U16x8{});
+  *sum += reinterpret_cast<I16x8>(tap - centre) & take;
+  *count -= take;
+}
+
+// The same for one centre (the row's ends).
+inline void accumulate(std::uint16_t centre, std::uint16_t gate, std::uint16_t tap,
+                       std::int32_t* sum, std::int32_t* count) {
+  const int diff = static_cast<int>(tap) - static_cast<int>(centre);
+  if (tap != 0 && std::abs(diff) <= gate) {
+    *sum += diff;
+    ++*count;
   }
 }
 
-// The centres' gates (eq. 1 at each centre's depth, codes) and zeroed sums.
-inline void start_row(const std::uint16_t* __restrict centre, float gate_per_code2,
-                      std::int32_t* __restrict gate, std::int32_t* __restrict sum,
-                      std::int32_t* __restrict count, int n) {
-  for (int u = 0; u < n; ++u) {
-    const auto c = static_cast<float>(centre[u]);
-    gate[u] = static_cast<std::int32_t>(std::min(gate_per_code2 * c * c, 65535.0f));
-    sum[u] = 0;
-    count[u] = 0;
-  }
+// A centre's gate: eq. (1) at its depth, in codes, capped (one lane, or eight).
+inline std::uint16_t gate_of(std::uint16_t centre, float gate_per_code2, float cap) {
+  const auto c = static_cast<float>(centre);
+  return static_cast<std::uint16_t>(std::min(gate_per_code2 * c * c, cap));
+}
+// Eight at once. The centres are first capped where their gate reaches the cap
+// (centre_cap), so that the 32-bit products neither overflow nor wrap when
+// narrowed; the 16-bit minimum then gives exactly the one-lane gate.
+inline U16x8 gate_of(U16x8 centre, float gate_per_code2, U16x8 centre_cap, U16x8 cap) {
+  const F32x8 c = __builtin_convertvector(simd::min_u16(centre, centre_cap), F32x8);
+  const I32x8 whole = __builtin_convertvector(gate_per_code2 * c * c, I32x8);
+  return simd::min_u16(__builtin_convertvector(whole, U16x8), cap);
 }
 
-// The mean of the taps taken, rounded; 0 where the centre is missing (it always
-// takes itself, so count > 0 elsewhere).
-inline void gated_means(const std::uint16_t* __restrict centre, const std::int32_t* __restrict sum,
-                        const std::int32_t* __restrict count, std::uint16_t* __restrict out,
-                        int n) {
-  for (int u = 0; u < n; ++u) {
-    const float mean =
-        static_cast<float>(sum[u]) / static_cast<float>(std::max(count[u], std::int32_t{1}));
-    out[u] = centre[u] == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(mean + 0.5f);
-  }
+// centre + the mean difference of the taps taken, rounded half up (truncating
+// a positive number floors it: |mean| <= the gate < 32768); 0 where the centre
+// is missing (it always takes itself, so count > 0 elsewhere).
+inline std::uint16_t mean_of(std::uint16_t centre, std::int32_t sum, std::int32_t count) {
+  const float mean = static_cast<float>(sum) / static_cast<float>(std::max(count, 1));
+  const int step = static_cast<int>(mean + 32768.5f) - 32768;
+  return centre == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(centre + step);
+}
+inline U16x8 mean_of(U16x8 centre, I16x8 sum, I16x8 count) {
+  const I16x8 missing = centre == U16x8{};  // count 0 there: divide by 1 instead
+  const F32x8 n = __builtin_convertvector(count - missing, F32x8);
+  const F32x8 mean = __builtin_convertvector(sum, F32x8) / n;
+  const I32x8 step = __builtin_convertvector(mean + 32768.5f, I32x8) - 32768;
+  const U16x8 out = centre + __builtin_convertvector(step, U16x8);
+  return reinterpret_cast<U16x8>(reinterpret_cast<I16x8>(out) & ~missing);
+}
+
+inline void store_u16(std::uint16_t* p, U16x8 v) {
+  std::memcpy(p, &v, sizeof v);
 }
 
 }  // namespace
@@ -92,30 +118,56 @@ inline void gated_means(const std::uint16_t* __restrict centre, const std::int32
 void DepthFilter::filter_along_row(const std::uint16_t* in, std::uint16_t* out) const {
   const int w = width_;
   const int r = radius_;
-  std::int32_t* gate = gate_.get();
-  std::int32_t* sum = sum_.get();
-  std::int32_t* count = count_.get();
-  start_row(in, gate_per_code2_, gate, sum, count, w);
-  for (int k = -r; k <= r; ++k) {
-    // Centres whose tap u + k lies in the row.
-    const int begin = std::max(0, -k);
-    const int end = std::min(w, w - k);
-    add_taps(in + begin, gate + begin, in + begin + k, sum + begin, count + begin, end - begin);
+  // Eight centres at a time where all their taps lie in the row, one at a time
+  // at the ends.
+  const U16x8 cap = simd::splat_u16(static_cast<std::uint16_t>(gate_cap_));
+  const U16x8 centre_cap = simd::splat_u16(centre_cap_);
+  const auto one = [&](int u) {
+    const std::uint16_t gate = gate_of(in[u], gate_per_code2_, gate_cap_);
+    std::int32_t sum = 0, count = 0;
+    for (int k = std::max(-r, -u); k <= std::min(r, w - 1 - u); ++k) {
+      accumulate(in[u], gate, in[u + k], &sum, &count);
+    }
+    out[u] = mean_of(in[u], sum, count);
+  };
+  int u = 0;
+  for (; u < std::min(r, w); ++u) one(u);
+  for (; u + 8 + r <= w; u += 8) {
+    const U16x8 centre = simd::load_u16(in + u);
+    const U16x8 gate = gate_of(centre, gate_per_code2_, centre_cap, cap);
+    I16x8 sum{}, count{};
+    for (int k = -r; k <= r; ++k)
+      accumulate(centre, gate, simd::load_u16(in + u + k), &sum, &count);
+    store_u16(out + u, mean_of(centre, sum, count));
   }
-  gated_means(in, sum, count, out, w);
+  for (; u < w; ++u) one(u);
 }
 
 void DepthFilter::filter_along_column(int v, std::uint16_t* out) const {
   const int w = width_;
   const std::uint16_t* centre = ring_row(v);
-  std::int32_t* gate = gate_.get();
-  std::int32_t* sum = sum_.get();
-  std::int32_t* count = count_.get();
-  start_row(centre, gate_per_code2_, gate, sum, count, w);
   const int first = std::max(0, v - radius_);
   const int last = std::min(height_ - 1, v + radius_);
-  for (int t = first; t <= last; ++t) add_taps(centre, gate, ring_row(t), sum, count, w);
-  gated_means(centre, sum, count, out, w);
+  const U16x8 cap = simd::splat_u16(static_cast<std::uint16_t>(gate_cap_));
+  const U16x8 centre_cap = simd::splat_u16(centre_cap_);
+  const std::uint16_t* taps[2 * kMaxDepthFilterRadius + 1];
+  const int tap_rows = last - first + 1;
+  for (int t = 0; t < tap_rows; ++t) taps[t] = ring_row(first + t);
+  int u = 0;
+  for (; u + 8 <= w; u += 8) {
+    const U16x8 c = simd::load_u16(centre + u);
+    const U16x8 gate = gate_of(c, gate_per_code2_, centre_cap, cap);
+    I16x8 sum{}, count{};
+    for (int t = 0; t < tap_rows; ++t)
+      accumulate(c, gate, simd::load_u16(taps[t] + u), &sum, &count);
+    store_u16(out + u, mean_of(c, sum, count));
+  }
+  for (; u < w; ++u) {
+    const std::uint16_t gate = gate_of(centre[u], gate_per_code2_, gate_cap_);
+    std::int32_t sum = 0, count = 0;
+    for (int t = 0; t < tap_rows; ++t) accumulate(centre[u], gate, taps[t][u], &sum, &count);
+    out[u] = mean_of(centre[u], sum, count);
+  }
 }
 
 }  // namespace zonemap

@@ -9,7 +9,8 @@
 // depths of one surface narrows that spread; the gate keeps depth edges
 // (silhouettes) and thin things (a post one pixel wide keeps its own depth, as
 // nothing beside it is within the gate) as they were. Missing depth stays
-// missing. Depths are in raw codes (camera.depth_scale per metre).
+// missing. Depths are in raw codes (camera.depth_scale per metre); the gate is
+// capped at 32767 / (2r + 1) codes (6553 at r = 2: 6.5 m in millimetres).
 //
 // Streaming: rows are filtered on demand, in increasing order, from a ring of
 // 2r + 1 row-filtered rows; nothing is allocated after construction.
@@ -51,13 +52,12 @@ class DepthFilter {
   int radius_;
   int ring_rows_;
   float gate_per_code2_;
+  float gate_cap_;            // 32767 / (2r + 1) codes: a row's sums fit 16 bits
+  std::uint16_t centre_cap_;  // the least depth whose gate reaches the cap
   const std::uint16_t* depth_ = nullptr;
   int rows_done_ = 0;  // rows of the frame filtered along the row so far
   std::unique_ptr<std::uint16_t[]> ring_;
   std::unique_ptr<std::uint16_t[]> out_;
-  std::unique_ptr<std::int32_t[]> gate_;  // per pixel of a row: the centre's gate, codes
-  std::unique_ptr<std::int32_t[]> sum_;
-  std::unique_ptr<std::int32_t[]> count_;
 };
 
 }  // namespace zonemap

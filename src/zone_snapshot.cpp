@@ -186,16 +186,22 @@ void PeakTrim::apply(const ZoneView& zone, std::uint64_t* occupied) const {
     const bool above = z + 1 < nz && has_occupied(z + 1);
     if (above) plane_maxima(zone, z + 1, ring(z + 1));
     if (here) {
+      // The plane's occupied cells, a word at a time (they are few: surfaces).
       const std::size_t first = static_cast<std::size_t>(z) * plane;
-      const FusedCell* cells = zone.cells + first;
-      for (std::size_t j = 0; j < plane; ++j) {
-        const std::size_t i = first + j;
-        if (((occupied[i >> 6] >> (i & 63)) & 1u) == 0) continue;
-        std::uint8_t peak = ring(z)[j];
-        if (below) peak = std::max(peak, ring(z - 1)[j]);
-        if (above) peak = std::max(peak, ring(z + 1)[j]);
-        if (256 * level_of(cells[j]) < fraction_256_ * peak) {
-          occupied[i >> 6] &= ~(std::uint64_t{1} << (i & 63));
+      const std::size_t end = first + plane;
+      for (std::size_t w = first >> 6; w <= (end - 1) >> 6; ++w) {
+        std::uint64_t bits = occupied[w];
+        if (w * 64 < first) bits &= ~std::uint64_t{0} << (first - w * 64);
+        if (w * 64 + 64 > end) bits &= ~std::uint64_t{0} >> (w * 64 + 64 - end);
+        for (; bits != 0; bits &= bits - 1u) {
+          const std::size_t i = w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
+          const std::size_t j = i - first;
+          std::uint8_t peak = ring(z)[j];
+          if (below) peak = std::max(peak, ring(z - 1)[j]);
+          if (above) peak = std::max(peak, ring(z + 1)[j]);
+          if (256 * level_of(zone.cells[i]) < fraction_256_ * peak) {
+            occupied[w] &= ~(std::uint64_t{1} << (i & 63));
+          }
         }
       }
     }

@@ -203,7 +203,11 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
   // surface columns within three window radii (lowest_ is free to reuse now).
   window_min(terrain_.get(), lowest_.get(), column_tmp_.get(), 3 * r);
   for (std::size_t c = 0; c < columns; ++c) {
-    if (terrain_[c] == kNoHeight) terrain_[c] = lowest_[c];
+    if (terrain_[c] != kNoHeight) continue;
+    terrain_[c] = lowest_[c];
+    // Borrowed terrain: this column's own run (a thing standing there, or one
+    // cut by the zone's bottom face) measures no band.
+    run_top_[c] = kNoHeight;
   }
   compute_ground_top();
 }

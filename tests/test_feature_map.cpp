@@ -224,6 +224,29 @@ TEST(FeatureGround, AMeasuredBandIsGroundAndThePostStandsOnIt) {
       << "the band, and the post's foot within its cell of scatter";
 }
 
+TEST(FeatureGround, AThingCutByTheZonesBottomIsNoBand) {
+  // A field at z = 0 for x < 8; beside it a hut 5 cells tall that the zone's
+  // bottom face cuts (its ground lies in the zone below). Too small to be a
+  // surface, its columns borrow the field's terrain; their runs are the hut, not
+  // a band: measured as one, they made the whole hut ground.
+  const std::array<int, 3> dims = {30, 30, 12};
+  FeatureMap map(measured_band_config(dims), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x)
+      for (int z = 0; z < 12; ++z) zone.set(x, y, z, -kCellScale);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 8; ++x) zone.set(x, y, 0);
+  for (int y = 13; y <= 15; ++y)
+    for (int x = 11; x <= 13; ++x)
+      for (int z = 0; z <= 4; ++z) zone.set(x, y, z);
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 1u) << "the hut";
+  EXPECT_EQ(obstacles[0]->min, (CellIndex{11, 13, 0}));
+  EXPECT_EQ(obstacles[0]->max, (CellIndex{13, 15, 4}));
+}
+
 TEST(FeatureGround, RunsOfMixedHeightsAreNotABand) {
   // A thin field (z = 2) and a row of bushes 3 cells tall (x 11..13): every window
   // holding bushes holds field too, so its runs spread and the thickness holds.

@@ -172,7 +172,19 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
              zone.occupied(zone.index(x, y, z_up_ ? top + 1 : nz - 2 - top))) {
         ++top;
       }
-      lowest_[static_cast<std::size_t>(y) * nx + x] = lowest;
+      // The surface lies where the run's fused value peaks: far views smear a band
+      // about it both ways, so its lowest cell lies under the ground (with the
+      // band measured; else the run is that one cell).
+      std::int16_t surface = lowest;
+      int peak_level = -1;
+      for (int h = lowest; lowest != kNoHeight && h <= top; ++h) {
+        const int level = zone.level(zone.index(x, y, z_up_ ? h : nz - 1 - h));
+        if (level > peak_level) {
+          peak_level = level;
+          surface = static_cast<std::int16_t>(h);
+        }
+      }
+      lowest_[static_cast<std::size_t>(y) * nx + x] = surface;
       run_top_[static_cast<std::size_t>(y) * nx + x] = static_cast<std::int16_t>(top);
       covered_row += lowest != kNoHeight ? 1 : 0;
       observed_row += known ? 1 : 0;
@@ -181,7 +193,7 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
       observed_[at] = observed_[at - stride] + observed_row;
     }
   }
-  // Terrain candidates: the lowest occupied cell, minimum over the window.
+  // Terrain candidates: the surface cell, minimum over the window.
   const int r = ground_window_cells_;
   window_min(lowest_.get(), terrain_.get(), column_tmp_.get(), r);
   // Kept where the window is a surface (enough of its observed columns hold an

@@ -19,7 +19,8 @@ DepthFilter::DepthFilter(int width, int height, int radius, float resolution_per
       centre_cap_(static_cast<std::uint16_t>(
           gate_per_code2_ > 0.0f
               ? std::min(65535.0, std::ceil(std::sqrt(static_cast<double>(gate_cap_) /
-                                                      static_cast<double>(gate_per_code2_))))
+                                                      static_cast<double>(gate_per_code2_))) +
+                                      1.0)
               : 65535.0)) {
   if (radius_ == 0) return;
   const auto w = static_cast<std::size_t>(width_);
@@ -83,9 +84,9 @@ inline std::uint16_t gate_of(std::uint16_t centre, float gate_per_code2, float c
   const auto c = static_cast<float>(centre);
   return static_cast<std::uint16_t>(std::min(gate_per_code2 * c * c, cap));
 }
-// Eight at once. The centres are first capped where their gate reaches the cap
-// (centre_cap), so that the 32-bit products neither overflow nor wrap when
-// narrowed; the 16-bit minimum then gives exactly the one-lane gate.
+// Eight at once. The centres are first capped a code past where their gate
+// reaches the cap (centre_cap: past float rounding too), so that the 32-bit products neither
+// overflow nor wrap when narrowed; the 16-bit minimum then gives exactly the one-lane gate.
 inline U16x8 gate_of(U16x8 centre, float gate_per_code2, U16x8 centre_cap, U16x8 cap) {
   const F32x8 c = __builtin_convertvector(simd::min_u16(centre, centre_cap), F32x8);
   const I32x8 whole = __builtin_convertvector(gate_per_code2 * c * c, I32x8);

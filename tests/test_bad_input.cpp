@@ -97,6 +97,10 @@ TEST(BadConfig, OutOfRangeValuesAreRefused) {
       {"ground: {band_percentile: 1.0}\n", "band_percentile"},
       {"ground: {band_percentile: 0.3, thickness_m: 3.0, max_thickness_m: 2.0}\n",
        "max_thickness_m"},
+      {"sensor: {depth_filter_radius: 9}\n", "depth_filter_radius"},
+      {"sensor: {depth_filter_radius: -1}\n", "depth_filter_radius"},
+      {"features: {peak_fraction: 1.0}\n", "peak_fraction"},
+      {"features: {peak_fraction: 0.5, peak_window_m: 100.0}\n", "peak_window_m"},
   };
   for (const auto& [text, word] : cases) {
     write_text(dir / "c.yaml", text);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "simd_u16.hpp"
 #include "zonemap/sensor_model.hpp"
@@ -309,8 +310,10 @@ inline float lanes_hmax(Lanes v) {
 // Which halves of row y's columns [x0, x0 + count) (count <= 8) hold a code in
 // [lo, hi]: bit 0 for columns x0..x0+3, bit 1 for x0+4.. (one load of eight codes
 // inside the image, lanes outside masked).
-int row_halves_with_code_in(const std::uint16_t* codes, int width, int x0, int count, int y,
-                            std::uint16_t lo, std::uint16_t hi) {
+__attribute__((always_inline)) inline int row_halves_with_code_in(const std::uint16_t* codes,
+                                                                  int width, int x0, int count,
+                                                                  int y, std::uint16_t lo,
+                                                                  std::uint16_t hi) {
   using simd::U16x8;
   if (width < 8) {  // an image narrower than one load
     int halves = 0;
@@ -366,19 +369,26 @@ __attribute__((always_inline)) inline bool tiles_middle_out(int x0, int y0, int 
   return false;
 }
 
-// The rays of one row segment of the depth image, four at a time.
-float row_best(const std::uint16_t* codes, int u0, int v, int count, const RayLanes& rays) {
-  Lanes best = splat(kNoRay);
-  const Lanes row = splat(static_cast<float>(v));
-  for (int first = 0; first < count; first += 4) {
-    const Lanes u = splat(static_cast<float>(u0 + first)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
-    Lanes code = splat(static_cast<float>(DepthRangeTable::kMissing));
-    for (int i = 0; i < 4 && first + i < count; ++i) {
-      code[i] = static_cast<float>(codes[first + i]);
-    }
-    best = lanes_max(best, rays_best(u, row, code, rays));
+// The largest m̂ of row v's rays u0 .. u0 + count - 1 (count <= 4): one load of
+// four codes when they lie inside the row, lanes past count missing.
+__attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* row, int width,
+                                                           int u0, int v, int count,
+                                                           const RayLanes& rays) {
+  using U16x4 = std::uint16_t __attribute__((vector_size(8)));
+  using Ints = std::int32_t __attribute__((vector_size(16)));
+  Lanes code;
+  if (u0 + 4 <= width) {
+    U16x4 four;
+    std::memcpy(&four, row + u0, sizeof four);
+    const Ints lane = {0, 1, 2, 3};
+    code = lane < count ? __builtin_convertvector(four, Lanes)
+                        : splat(static_cast<float>(DepthRangeTable::kMissing));
+  } else {
+    code = splat(static_cast<float>(DepthRangeTable::kMissing));
+    for (int i = 0; i < count; ++i) code[i] = static_cast<float>(row[u0 + i]);
   }
-  return lanes_hmax(best);
+  const Lanes u = splat(static_cast<float>(u0)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
+  return lanes_hmax(rays_best(u, splat(static_cast<float>(v)), code, rays));
 }
 
 }  // namespace
@@ -469,11 +479,10 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   std::uint16_t sign_lo = 0, sign_hi = 0;
   codes_reaching(cell.a, cell.b, margin, margin, false, &sign_lo, &sign_hi);
   std::int64_t clipped = 0;
-  const auto scan_row = [&](int tx, int v, int count) {
+  const auto scan_row = [&](int tx, int v, int count) __attribute__((always_inline)) {
     clipped += count;
-    best =
-        std::max(best, row_best(depths.codes() + static_cast<std::size_t>(v) * depths.width() + tx,
-                                tx, v, count, cell.rays));
+    const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
+    best = std::max(best, four_rays_best(row, depths.width(), tx, v, count, cell.rays));
   };
   // Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
   // only the rows holding such a depth (one vector compare per row), until a ray
@@ -506,46 +515,59 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
     return best;
   }
   // Pass 2 (the sign is lower than U's): the exact maximum over every tile that
-  // can beat the best so far; when a ray is known to cross the cell, a tile that
+  // can beat the best so far; once a ray is known to cross the cell, a tile that
   // can only add a free value gives its bound instead (it keeps the sign and
   // stays above the reference's value).
   if (passed_over) {
-    const bool crossed = best >= -1.0f;
-    // Once a ray crosses the cell, only depths whose rays can beat it need
-    // clipping: rays reaching a at all (d + Δd(d) >= a), and d - (1 - best) Δd(d)
-    // <= b (m̂ = 1 - |δ - d| / Δd above best somewhere in [a, b]), widened. The
-    // best only grows, so the interval stays a superset.
-    std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kMaxDepthCode;
-    if (crossed) {
-      const float widen = 129.0f / 128.0f;
-      codes_reaching(cell.a, cell.b, widen, (1.0f - best) * widen, true, &beat_lo, &beat_hi);
-    }
+    // Only depths whose rays can beat the best so far need clipping: before any
+    // ray crosses, those reaching a at all (d + Δd(d) >= a; kFar rays are free
+    // across); after, also d - (1 - best) Δd(d) <= b (m̂ = 1 - |δ - d| / Δd above
+    // best somewhere in [a, b]). Widened; the best only grows, so each interval
+    // holds the next.
+    std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kFar;
+    const float widen = 129.0f / 128.0f;
+    float beat_for = kNoRay;  // the best the interval was computed for
+    const auto narrow = [&] {
+      beat_for = best;
+      if (best >= -1.0f) {
+        codes_reaching(cell.a, cell.b, widen, (1.0f - best) * widen, true, &beat_lo, &beat_hi);
+      } else {
+        std::uint16_t unused = 0;
+        codes_reaching(cell.a, cell.b, widen, widen, false, &beat_lo, &unused);
+        beat_hi = DepthRangeTable::kFar;
+      }
+    };
+    narrow();
     for (int ty = y0; ty <= y1; ty += kTileH) {
       for (int tx = x0; tx <= x1; tx += kTileW) {
         const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
-        if (lo_code > hi_code) continue;
+        if (lo_code > hi_code || hi_code < beat_lo || lo_code > beat_hi) continue;
         float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
                                far_end(lo_code, hi_code, cell.a, cell.b));
         if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
             static_cast<float>(lo_code) * code_to_m_ <= cell.b)
           bound = 1.0f;
         if (bound <= best) continue;
-        if (crossed && to_fixed(bound) < 0) {
-          best = std::max(best, bound);
+        if (best >= -1.0f && to_fixed(bound) < 0) {
+          best = bound;
+          narrow();
           continue;
         }
         const int count = ex - tx + 1;
+        // The first pass clipped every half-row holding a code in [sign_lo, sign_hi].
+        const bool seen = hi_code >= sign_lo && lo_code <= sign_hi;
         for (int v = ty; v <= ey; ++v) {
-          if (!crossed) {
-            scan_row(tx, v, count);
-            continue;
+          int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
+                                               beat_lo, beat_hi);
+          if (seen && halves != 0) {
+            halves &= ~row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
+                                               sign_lo, sign_hi);
           }
-          const int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
-                                                     beat_lo, beat_hi);
           if (halves & 1) scan_row(tx, v, std::min(count, 4));
           if (halves & 2) scan_row(tx + 4, v, count - 4);
+          if (best > beat_for) narrow();
         }
       }
     }
@@ -570,9 +592,11 @@ bool ProjectiveIntegrator::any_ray_crosses(const DepthRangeTable& depths, int x0
           const int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
                                                      reach_lo, DepthRangeTable::kFar);
           const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
-          if ((halves & 1) && row_best(row + tx, tx, v, std::min(count, 4), cell.rays) >= -1.0f)
+          const int width = depths.width();
+          if ((halves & 1) &&
+              four_rays_best(row, width, tx, v, std::min(count, 4), cell.rays) >= -1.0f)
             return true;
-          if ((halves & 2) && row_best(row + tx + 4, tx + 4, v, count - 4, cell.rays) >= -1.0f)
+          if ((halves & 2) && four_rays_best(row, width, tx + 4, v, count - 4, cell.rays) >= -1.0f)
             return true;
         }
         return false;

@@ -8,6 +8,7 @@
 #include "tools/sim/scene.hpp"
 #include "zonemap/feature_map.hpp"
 #include "zonemap/quadtree.hpp"
+#include "zonemap/running_min.hpp"
 
 namespace zonemap {
 namespace {
@@ -561,3 +562,36 @@ TEST(FeatureStore, ExtractionAndReintegrationDoNotAllocate) {
 
 }  // namespace
 }  // namespace zonemap
+
+// The block-wise running minimum is the window's minimum by definition, for
+// every radius (past the line's length too), both strides and `none` entries.
+TEST(RunningMin, IsTheWindowsMinimumByDefinition) {
+  const std::int16_t none = INT16_MAX;
+  std::uint32_t state = 12345u;
+  const auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return state >> 8;
+  };
+  for (const int n : {1, 2, 7, 40}) {
+    for (const int r : {0, 1, 2, 3, 9, 45}) {
+      for (const std::ptrdiff_t step : {std::ptrdiff_t{1}, std::ptrdiff_t{3}}) {
+        std::vector<std::int16_t> in(static_cast<std::size_t>(n) * step, -7);
+        for (int i = 0; i < n; ++i) {
+          in[static_cast<std::size_t>(i * step)] =
+              next() % 5 == 0 ? none : static_cast<std::int16_t>(next() % 200);
+        }
+        std::vector<std::int16_t> out(in.size(), -7);
+        std::vector<std::int16_t> line(zonemap::running_min_line_size(n, r));
+        zonemap::running_min(in.data(), out.data(), n, step, r, none, line.data());
+        for (int i = 0; i < n; ++i) {
+          std::int16_t expected = none;
+          for (int j = std::max(0, i - r); j <= std::min(n - 1, i + r); ++j) {
+            expected = std::min(expected, in[static_cast<std::size_t>(j * step)]);
+          }
+          EXPECT_EQ(out[static_cast<std::size_t>(i * step)], expected)
+              << "n " << n << " r " << r << " step " << step << " at " << i;
+        }
+      }
+    }
+  }
+}

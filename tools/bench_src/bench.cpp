@@ -675,7 +675,8 @@ int main(int argc, char** argv) {
           "  --full-extent        0.25 m over the whole 80 x 80 x 40 m environment too\n"
           "  --indoor             only the indoor regime (Kinect frames, generated room)\n"
           "  --workers            only the mapping step with 1, 2 and 4 worker threads\n"
-          "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind)\n"
+          "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind);\n"
+          "                       with --indoor, on the Kinect frames (or the generated room)\n"
           "  --repeat N           passes over the same frames with --projective\n"
           "  --micro              the per-stage micro benchmarks\n",
           stdout);
@@ -706,6 +707,23 @@ int main(int argc, char** argv) {
   }
   if (workers_only) {
     workers_comparison(make_frames(640, frames));
+    return 0;
+  }
+  if (only_cell > 0.0 && indoor_only) {
+    // The Kinect frames (or the generated room without them) at one cell size,
+    // for perf/callgrind.
+    Frames f;
+    std::string why;
+    if (!load_kinect_frames(std::string(ZONEMAP_SHARED_DATA_DIR) + "/redkitchen-0000-0059", frames,
+                            &f, &why)) {
+      f = make_room_frames(frames);
+    }
+    const Timing t = time_zonemap(f, indoor_config(only_cell, MapConfig::Integration::kProjective));
+    std::printf(
+        "indoor projective %.2f m: %.2f ms median, %.2f ms p99, %s M instructions median; per "
+        "frame %.0f cells evaluated (%.0f free by a bound), %.0f settled ray by ray (%.0f rays)\n",
+        only_cell, t.median_ms, t.p99_ms, minstr_text(t).c_str(), t.cells_per_frame,
+        t.block_free_per_frame, t.exact_cells_per_frame, t.exact_rays_per_frame);
     return 0;
   }
   if (only_cell > 0.0) {

@@ -1,6 +1,7 @@
 #include "zonemap/feature_map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace zonemap {
@@ -459,9 +460,10 @@ std::size_t FeatureMap::split_at_valleys(const ZoneSnapshot& zone, std::size_t c
   }
   for (std::size_t k = 0; k < count; ++k) mark(component_[k]);
   if (cores <= 1) return 1;
-  // Each cell then goes to the core nearest in x-y: a region's growth along the
-  // low band that joins neighbours would otherwise reach far under them.
-  label_columns_by_nearest_core(count, queue, cores);
+  // Each cell then goes with its column: columns, not cells, so that a region's
+  // growth along the low band that joins neighbours cannot reach far under them;
+  // flooded down the columns' peaks, so that neighbours part where they dip.
+  label_columns_by_flooding(zone, count, queue, cores);
   sort_by_column_label(count, cores);
   // Two faces of one solid thing (a hut seen from both sides, its inside never
   // seen) are cores too; their regions' x-y boxes overlap mostly, those of
@@ -515,8 +517,8 @@ bool FeatureMap::merge_overlapping_regions(std::uint32_t cores) {
   return true;
 }
 
-void FeatureMap::label_columns_by_nearest_core(std::size_t count, const std::uint32_t* queue,
-                                               std::uint32_t cores) {
+void FeatureMap::label_columns_by_flooding(const ZoneSnapshot& zone, std::size_t count,
+                                           const std::uint32_t* queue, std::uint32_t cores) {
   const int nx = dims_[0];
   CellIndex lo{cell_x(component_[0]), cell_y(component_[0]), 0};
   CellIndex hi = lo;
@@ -525,35 +527,69 @@ void FeatureMap::label_columns_by_nearest_core(std::size_t count, const std::uin
     hi = {std::max(hi.x, cell_x(component_[k])), std::max(hi.y, cell_y(component_[k])), 0};
   }
   std::int16_t* label = column_tmp_.get();
-  for (int y = lo.y; y <= hi.y; ++y)
-    std::fill_n(label + static_cast<std::size_t>(y) * nx + lo.x, hi.x - lo.x + 1, std::int16_t{-1});
-  // Breadth-first over the columns of the component's x-y box from every core's
-  // seed columns at once (4-connected).
-  std::size_t tail = 0;
+  // Each column's peak: the largest level of the component's cells in it (lowest_
+  // is free once the terrain is known); -1 for the box's other columns.
+  std::int16_t* peak = lowest_.get();
+  for (int y = lo.y; y <= hi.y; ++y) {
+    const std::size_t row = static_cast<std::size_t>(y) * nx + lo.x;
+    std::fill_n(label + row, hi.x - lo.x + 1, std::int16_t{-1});
+    std::fill_n(peak + row, hi.x - lo.x + 1, std::int16_t{-1});
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t c = component_[k];
+    std::int16_t& p = peak[static_cast<std::size_t>(cell_y(c)) * nx + cell_x(c)];
+    p = std::max<std::int16_t>(p, zone.level(c));
+  }
+  // A bucket queue of columns by level (FIFO within a level; links through
+  // column_queue_): from the cores' seed columns, the highest columns are
+  // taken first and give their label to their unlabelled 4-neighbours, queued
+  // at their own peak (never above the level being flooded). Neighbours thus
+  // meet where the column peaks dip between them, not halfway between cores.
+  constexpr std::uint32_t kEnd = UINT32_MAX;
+  constexpr int kLevels = 256;
+  std::array<std::uint32_t, kLevels> head;
+  std::array<std::uint32_t, kLevels> tail;
+  head.fill(kEnd);
+  tail.fill(kEnd);
+  std::uint32_t* next = column_queue_.get();
+  const auto push = [&](std::uint32_t column, int level) {
+    const int b = std::clamp(level, 0, kLevels - 1);
+    next[column] = kEnd;
+    if (tail[b] == kEnd) {
+      head[b] = column;
+    } else {
+      next[tail[b]] = column;
+    }
+    tail[b] = column;
+  };
   for (std::uint32_t c = 0; c < cores; ++c) {
     for (std::size_t q = core_first_[c]; q < core_end_[c]; ++q) {
       const std::size_t cell = unpack_cell(queue[q]);
       const std::size_t column = static_cast<std::size_t>(cell_y(cell)) * nx + cell_x(cell);
       if (label[column] >= 0) continue;
       label[column] = static_cast<std::int16_t>(c);
-      column_queue_[tail++] = static_cast<std::uint32_t>(column);
+      push(static_cast<std::uint32_t>(column), peak[column]);
     }
   }
-  for (std::size_t head = 0; head < tail; ++head) {
-    const std::uint32_t column = column_queue_[head];
-    const int x = static_cast<int>(column % static_cast<std::uint32_t>(nx));
-    const int y = static_cast<int>(column / static_cast<std::uint32_t>(nx));
-    const auto visit = [&](int vx, int vy) {
-      if (vx < lo.x || vx > hi.x || vy < lo.y || vy > hi.y) return;
-      std::int16_t& l = label[static_cast<std::size_t>(vy) * nx + vx];
-      if (l >= 0) return;
-      l = label[column];
-      column_queue_[tail++] = static_cast<std::uint32_t>(vy * nx + vx);
-    };
-    visit(x - 1, y);
-    visit(x + 1, y);
-    visit(x, y - 1);
-    visit(x, y + 1);
+  for (int level = kLevels - 1; level >= 0; --level) {
+    while (head[level] != kEnd) {
+      const std::uint32_t column = head[level];
+      head[level] = next[column];
+      if (head[level] == kEnd) tail[level] = kEnd;
+      const int x = static_cast<int>(column % static_cast<std::uint32_t>(nx));
+      const int y = static_cast<int>(column / static_cast<std::uint32_t>(nx));
+      const auto visit = [&](int vx, int vy) {
+        if (vx < lo.x || vx > hi.x || vy < lo.y || vy > hi.y) return;
+        const std::size_t v = static_cast<std::size_t>(vy) * nx + vx;
+        if (label[v] >= 0) return;
+        label[v] = label[column];
+        push(static_cast<std::uint32_t>(v), std::min<int>(peak[v], level));
+      };
+      visit(x - 1, y);
+      visit(x + 1, y);
+      visit(x, y - 1);
+      visit(x, y + 1);
+    }
   }
 }
 

@@ -2,6 +2,8 @@
 // split, re-integration, cross-zone merge, store policy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <vector>
 
 #include "hal/os/allocation_counter.hpp"
@@ -423,6 +425,36 @@ TEST(FeatureSplit, OneObjectWithoutADipStaysWhole) {
   EXPECT_EQ(map.counters().objects_split, 0);
   EXPECT_EQ(objects[0]->min.y, 2);
   EXPECT_EQ(objects[0]->max.y, 9);
+}
+
+TEST(FeatureSplit, NeighboursPartWhereTheyDipNotHalfwayBetweenTheirCores) {
+  // Along y: A's narrow peak (y 2) and its long high body (y 3-9), a valley
+  // (y 10-11), B (y 12-13). Halfway between the cores (y 2, y 12) would give B
+  // A's far body; flooded down the column peaks, each keeps its side of the valley.
+  const std::array<int, 3> dims = {12, 16, 8};  // levels kept for 1/16 of the cells
+  TestZone zone(dims, {0, 0, 0});
+  const auto level_at = [](int y) {
+    if (y == 2) return 40;
+    if (y <= 9) return 30;
+    if (y <= 11) return 10;
+    return 25;
+  };
+  for (int z = 0; z < 4; ++z)
+    for (int x = 2; x <= 3; ++x)
+      for (int y = 2; y <= 13; ++y)
+        zone.set(x, y, z, static_cast<FusedCell>(level_at(y) * kCellScale));
+  MapConfig config = feature_config(dims, false);
+  config.features.split_touching = true;
+  FeatureMap map(config, true);
+  map.extract(zone.view);
+  auto objects = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(objects.size(), 2u);
+  std::sort(objects.begin(), objects.end(),
+            [](const Feature* a, const Feature* b) { return a->min.y < b->min.y; });
+  EXPECT_EQ(objects[0]->min.y, 2);
+  EXPECT_EQ(objects[0]->max.y, 10) << "A keeps its body and its half of the valley";
+  EXPECT_EQ(objects[1]->min.y, 11);
+  EXPECT_EQ(objects[1]->max.y, 13);
 }
 
 TEST(FeatureSplit, ASpeckAboveTheRestIsNotACore) {

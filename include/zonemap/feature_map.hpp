@@ -197,10 +197,11 @@ class FeatureMap : public ZoneObserver {
                            int level);
   std::size_t add_cores(const ZoneSnapshot& zone, std::size_t count, std::uint32_t* queue,
                         std::size_t tail, int level, std::uint32_t* cores);
-  // Every column of the component's x-y box gets the label of the core nearest
-  // to it (column_tmp_); the component's cells are then sorted by it into regions.
-  void label_columns_by_nearest_core(std::size_t count, const std::uint32_t* queue,
-                                     std::uint32_t cores);
+  // Every column of the component's x-y box gets the label of a core (column_tmp_),
+  // flooded from the cores down the columns' peak levels; the component's cells
+  // are then sorted by it into regions.
+  void label_columns_by_flooding(const ZoneSnapshot& zone, std::size_t count,
+                                 const std::uint32_t* queue, std::uint32_t cores);
   void sort_by_column_label(std::size_t count, std::uint32_t cores);
   // Regions (sorted) whose x-y boxes overlap by more than half of the smaller are
   // one object: their columns get one label; true when any were joined.

@@ -34,9 +34,9 @@ std::size_t DepthFilter::reserved_bytes() const {
   return w * static_cast<std::size_t>(ring_rows_ + 1) * sizeof(std::uint16_t);
 }
 
-void DepthFilter::begin(const std::uint16_t* depth) {
+void DepthFilter::begin(const std::uint16_t* depth, int first_row) {
   depth_ = depth;
-  rows_done_ = 0;
+  rows_done_ = std::max(0, first_row - radius_);
 }
 
 const std::uint16_t* DepthFilter::row(int v) {

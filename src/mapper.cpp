@@ -119,7 +119,15 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))),
-      sky_flags_(new std::uint8_t[3 * static_cast<std::size_t>(std::max(camera.width, 1))]()) {
+      sky_flags_(new std::uint8_t[kMaxDepthParts * 3 *
+                                  static_cast<std::size_t>(std::max(camera.width, 1))]()) {
+  part_filters_.reserve(kMaxDepthParts - 1);
+  for (int p = 1; p < kMaxDepthParts; ++p) {
+    part_filters_.emplace_back(
+        camera.width, camera.height, config.depth_filter_radius_px,
+        static_cast<float>(camera.match_sigma_px /
+                           (camera.baseline_m * camera.fx * camera.depth_scale)));
+  }
   // d_min <= d <= d_max as raw codes, fixed for the run: the last raw values
   // that are too near / not yet beyond d_max (16 bits; a limit past the code
   // range never applies).
@@ -244,32 +252,73 @@ void Mapper::integrate_projective(const DepthFrameView& frame,
 void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
   // Level 0 of the range table: each pixel's depth code, kFar for free-only
   // rays, or missing. pixel_step is a reference-path option: every pixel is used.
+  // Bands of rows, one per part (each band's filter reads the r rows before it):
+  // the codes and the integer sums are the same for any number of parts.
+  const int parts = split_ == nullptr ? 1 : std::min(split_->parts(), kMaxDepthParts);
+  struct Context {
+    Mapper* self;
+    const DepthFrameView* frame;
+    int parts;
+  } context{this, &frame, parts};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    Context& x = *static_cast<Context*>(c);
+    if (part >= x.parts) return;
+    Mapper& m = *x.self;
+    const int h = x.frame->height;
+    const int first = h * part / x.parts, end = h * (part + 1) / x.parts;
+    DepthFilter& filter =
+        part == 0 ? m.filter_ : m.part_filters_[static_cast<std::size_t>(part - 1)];
+    std::uint8_t* sky = m.sky_flags_.get() + static_cast<std::size_t>(part) * 3 *
+                                                 static_cast<std::size_t>(x.frame->width);
+    filter.begin(x.frame->depth, first);
+    m.part_counts_[static_cast<std::size_t>(part)] =
+        m.classify_rows(*x.frame, first, end, filter, sky);
+  };
+  if (parts == 1) {
+    job(&context, 0, 1);
+  } else {
+    split_->run(job, &context);
+  }
+  DepthCounts all;
+  for (int p = 0; p < parts; ++p) {
+    const DepthCounts& c = part_counts_[static_cast<std::size_t>(p)];
+    all.hit += c.hit;
+    all.near += c.near;
+    all.far += c.far;
+    all.missing += c.missing;
+    all.sky += c.sky;
+  }
+  report->rays_hit += all.hit;
+  report->rays_free += all.far;
+  report->pixels_too_near += all.near;
+  report->pixels_missing += all.missing;
+  report->pixels_sky += all.sky;
+}
+
+Mapper::DepthCounts Mapper::classify_rows(const DepthFrameView& frame, int first, int end,
+                                          DepthFilter& filter, std::uint8_t* sky_flags) {
   const bool sky_filter = config_.sky.enabled && frame.left != nullptr;
   std::uint16_t* base = depths_.base();
   const std::uint16_t near_last = raw_near_last_, far_last = raw_far_last_;
-  std::int32_t hit = 0, near = 0, far = 0, missing = 0;
-  for (int v = 0; v < frame.height; ++v) {
-    const std::uint16_t* depth_row = filter_.row(v);
+  DepthCounts counts;
+  for (int v = first; v < end; ++v) {
+    const std::uint16_t* depth_row = filter.row(v);
     std::uint16_t* out = base + static_cast<std::size_t>(v) * frame.width;
-    const RowCounts counts = convert_row(depth_row, out, frame.width, near_last, far_last);
-    const std::uint16_t row_missing = counts.missing, row_near = counts.near, row_far = counts.far;
-    near += row_near;
-    far += row_far;
-    hit += frame.width - row_missing - row_near - row_far;
-    missing += row_missing;
+    const RowCounts row = convert_row(depth_row, out, frame.width, near_last, far_last);
+    counts.near += row.near;
+    counts.far += row.far;
+    counts.hit += frame.width - row.missing - row.near - row.far;
+    counts.missing += row.missing;
     // Missing pixels of a bright, textureless patch are sky: free up to d_max.
-    if (row_missing > 0 && sky_filter) {
-      sky_row(frame.left, v, sky_flags_.get());
-      const std::uint16_t row_sky = mark_sky(depth_row, sky_flags_.get(), out, frame.width);
-      report->pixels_sky += row_sky;
-      missing -= row_sky;
-      far += row_sky;
+    if (row.missing > 0 && sky_filter) {
+      sky_row(frame.left, v, sky_flags);
+      const std::uint16_t row_sky = mark_sky(depth_row, sky_flags, out, frame.width);
+      counts.sky += row_sky;
+      counts.missing -= row_sky;
+      counts.far += row_sky;
     }
   }
-  report->rays_hit += hit;
-  report->rays_free += far;
-  report->pixels_too_near += near;
-  report->pixels_missing += missing;
+  return counts;
 }
 
 void Mapper::integrate_reference(const DepthFrameView& frame, const Eigen::Vector3f& start,

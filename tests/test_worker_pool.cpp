@@ -111,6 +111,13 @@ TEST(WorkerPool, MapWithTwoOrThreePartsIsTheOneMadeWithOne) {
       EXPECT_EQ(b.cells_visited, a.cells_visited);
       EXPECT_EQ(c.cells_exact, a.cells_exact);
       EXPECT_EQ(c.rays_exact, a.rays_exact);
+      for (const FrameReport* r : {&b, &c}) {  // the depths classified in bands of rows
+        EXPECT_EQ(r->rays_hit, a.rays_hit);
+        EXPECT_EQ(r->rays_free, a.rays_free);
+        EXPECT_EQ(r->pixels_missing, a.pixels_missing);
+        EXPECT_EQ(r->pixels_sky, a.pixels_sky);
+        EXPECT_EQ(r->pixels_too_near, a.pixels_too_near);
+      }
       ASSERT_EQ(std::memcmp(one.local_grid().data(), two.local_grid().data(),
                             one.local_grid().cell_count()),
                 0)

@@ -33,9 +33,11 @@ class DepthFilter {
 
   bool enabled() const { return radius_ > 0; }
   // A new frame (width x height raw codes, 0 = no measurement); kept by pointer
-  // until the next begin().
-  void begin(const std::uint16_t* depth);
-  // The filtered row v. Calls must ask for rows in increasing order within a frame.
+  // until the next begin(). Rows from first_row on will be asked for (a part of
+  // the frame: the filter reads r rows before it).
+  void begin(const std::uint16_t* depth, int first_row = 0);
+  // The filtered row v (>= first_row). Calls must ask for rows in increasing
+  // order within a frame.
   const std::uint16_t* row(int v);
 
   std::size_t reserved_bytes() const;

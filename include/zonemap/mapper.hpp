@@ -4,9 +4,11 @@
 // lock, throw or do I/O, and its loops are bounded by the image and grid sizes.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -87,8 +89,9 @@ class Mapper {
   const CameraModel& camera() const { return camera_; }
   // The projective path's depth range table and block flags.
   std::size_t depth_table_bytes() const {
-    return depths_.reserved_bytes() + projective_.reserved_bytes() + filter_.reserved_bytes() +
-           3 * static_cast<std::size_t>(camera_.width);
+    return depths_.reserved_bytes() + projective_.reserved_bytes() +
+           kMaxDepthParts *
+               (filter_.reserved_bytes() + 3 * static_cast<std::size_t>(camera_.width));
   }
   std::size_t reserved_bytes() const {
     return zones_.reserved_bytes() + local_.reserved_bytes() + depth_table_bytes();
@@ -121,8 +124,15 @@ class Mapper {
   // reference (every pixel_step-th pixel's ray walked).
   void integrate_projective(const DepthFrameView& frame, const Eigen::Isometry3d& world_T_camera,
                             FrameReport* report);
-  // Level 0 of the depth table from the frame, sky marked, pixels counted.
+  // Level 0 of the depth table from the frame, sky marked, pixels counted: in
+  // bands of rows, one per part of the work split.
   void classify_depths(const DepthFrameView& frame, FrameReport* report);
+  struct DepthCounts {
+    std::int32_t hit = 0, near = 0, far = 0, missing = 0, sky = 0;
+  };
+  // Rows [first, end) of classify_depths, with a part's own filter and sky rows.
+  DepthCounts classify_rows(const DepthFrameView& frame, int first, int end, DepthFilter& filter,
+                            std::uint8_t* sky_flags);
   void integrate_reference(const DepthFrameView& frame, const Eigen::Vector3f& start,
                            const Eigen::Matrix3f& rotation_cells, FrameReport* report);
   // FrameReport's sampled_hits*: where the sampled measurements end against the
@@ -137,12 +147,16 @@ class Mapper {
   CameraModel camera_;
   LocalGrid local_;
   ZoneMap zones_;
-  DepthFilter filter_;  // rows as the sensor model reads them
+  // The parts classify_depths splits into at most (its own filters and sky rows each).
+  static constexpr int kMaxDepthParts = 8;
+  DepthFilter filter_;                     // rows as the sensor model reads them (part 0's)
+  std::vector<DepthFilter> part_filters_;  // parts 1 ..
   DepthRangeTable depths_;
   ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
-  std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows
+  std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows, per part
+  std::array<DepthCounts, kMaxDepthParts> part_counts_{};
   WorkSplit* split_ = nullptr;
   std::uint16_t raw_near_last_ = 0;   // raw depths <= this are below d_min (0: none)
   std::uint16_t raw_far_last_ = 0;    // raw depths above this are beyond d_max

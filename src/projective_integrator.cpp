@@ -1,6 +1,7 @@
 #include "zonemap/projective_integrator.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -347,8 +348,10 @@ inline int middle_out(int i, int n) {
 }
 
 // Footprints are looked at in tiles of kTileW x kTileH pixels (one range query
-// each, rows of at most eight codes: one load).
+// each, rows of at most eight codes: one load); exact_value keeps the ranges of
+// up to kKeptTileRanges tiles between its passes (a 4 cm cell at 1 m: ~24 x 24 px).
 constexpr int kTileW = 8, kTileH = 4;
+constexpr int kKeptTileRanges = 64;
 
 // Calls visit(tx, ty, ex, ey) on the tiles of [x0, x1] x [y0, y1], rows and
 // columns of tiles from the middle out (the rays near a footprint's centre cross
@@ -381,8 +384,10 @@ __attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* 
     U16x4 four;
     std::memcpy(&four, row + u0, sizeof four);
     const Ints lane = {0, 1, 2, 3};
-    code = lane < count ? __builtin_convertvector(four, Lanes)
-                        : splat(static_cast<float>(DepthRangeTable::kMissing));
+    // Widened to 32 bits first: one unpack (SSE2, NEON) instead of four scalar
+    // conversions.
+    const Ints wide = __builtin_convertvector(four, Ints);
+    code = __builtin_convertvector(lane < count ? wide : Ints{} + DepthRangeTable::kMissing, Lanes);
   } else {
     code = splat(static_cast<float>(DepthRangeTable::kMissing));
     for (int i = 0; i < count; ++i) code[i] = static_cast<float>(row[u0 + i]);
@@ -488,10 +493,19 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // only the rows holding such a depth (one vector compare per row), until a ray
   // reaches the sign; tiles from the middle out.
   bool passed_over = false;  // some ray was not clipped in pass 1
+  // The tiles' depth ranges, kept for the second pass when the footprint has few
+  // enough tiles (the first pass visits them all when it does not stop early).
+  const int tile_cols = (x1 - x0) / kTileW + 1;
+  const bool keep_ranges = tile_cols * ((y1 - y0) / kTileH + 1) <= kKeptTileRanges;
+  std::array<std::uint32_t, kKeptTileRanges> kept_ranges;
+  const auto tile_at = [&](int tx, int ty) {
+    return static_cast<std::size_t>((ty - y0) / kTileH * tile_cols + (tx - x0) / kTileW);
+  };
   const bool reached = tiles_middle_out(
       x0, y0, x1, y1, [&](int tx, int ty, int ex, int ey) __attribute__((always_inline)) {
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+        if (keep_ranges) kept_ranges[tile_at(tx, ty)] = lo_code | std::uint32_t{hi_code} << 16;
         if (lo_code > hi_code) return false;  // every pixel missing: no ray
         if (hi_code < sign_lo || lo_code > sign_hi) {
           passed_over = true;
@@ -542,7 +556,13 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
       for (int tx = x0; tx <= x1; tx += kTileW) {
         const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
         std::uint16_t lo_code = 0, hi_code = 0;
-        depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+        if (keep_ranges) {
+          const std::uint32_t kept = kept_ranges[tile_at(tx, ty)];
+          lo_code = static_cast<std::uint16_t>(kept);
+          hi_code = static_cast<std::uint16_t>(kept >> 16);
+        } else {
+          depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+        }
         if (lo_code > hi_code || hi_code < beat_lo || lo_code > beat_hi) continue;
         float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
                                far_end(lo_code, hi_code, cell.a, cell.b));

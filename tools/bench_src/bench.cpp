@@ -449,8 +449,9 @@ double simulated_median_ms(const Frames& f, const MapConfig& config, int parts) 
 void workers_comparison(const Frames& f) {
   const unsigned cores = std::thread::hardware_concurrency();
   std::printf(
-      "\nmapping workers (projective 0.5 m, tree line; frustum walk, block classes and fusion\n"
-      "shared, the rest on the mapping thread): ms median, the least of three passes;\n"
+      "\nmapping workers (projective 0.5 m, tree line; depth classification, frustum walk, block\n"
+      "classes and fusion shared, the range table and the blur on the mapping thread): ms\n"
+      "median, the least of three passes;\n"
       "simulated = the parts run one after another and timed, a frame counted as if they ran\n"
       "at once; threads = on this machine's %u cores\n",
       cores);

@@ -274,11 +274,7 @@ void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
     m.part_counts_[static_cast<std::size_t>(part)] =
         m.classify_rows(*x.frame, first, end, filter, sky);
   };
-  if (parts == 1) {
-    job(&context, 0, 1);
-  } else {
-    split_->run(job, &context);
-  }
+  run_parts(split_, parts, job, &context);
   DepthCounts all;
   for (int p = 0; p < parts; ++p) {
     const DepthCounts& c = part_counts_[static_cast<std::size_t>(p)];

@@ -686,11 +686,7 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
     const Context& x = *static_cast<const Context*>(c);
     if (part < x.parts) x.self->classify_block_rows(*x.depths, *x.b, share_of(part, x.parts));
   };
-  if (parts == 1) {
-    job(&context, 0, 1);
-  } else {
-    split->run(job, &context);
-  }
+  run_parts(split, parts, job, &context);
 }
 
 void ProjectiveIntegrator::classify_block_rows(const DepthRangeTable& depths, const BlockSetup& b,
@@ -850,11 +846,7 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
     if (part >= x.parts) return;
     x.self->draw_rows(*x.f, *x.depths, share_of(part, x.parts), *x.grid, &x.results[part]);
   };
-  if (parts == 1) {
-    job(&context, 0, 1);
-  } else {
-    split->run(job, &context);
-  }
+  run_parts(split, parts, job, &context);
   // Integer sums and bounds: the same whatever the number of parts.
   ProjectiveStats stats;
   PartResult all;

@@ -153,11 +153,7 @@ void ZoneMap::fuse(const LocalGrid& local, WorkSplit* split) {
     const Context& x = *static_cast<const Context*>(c);
     x.self->fuse_rows(*x.local, share_of(part, x.parts));
   };
-  if (parts == 1) {
-    job(&context, 0, 1);
-  } else {
-    split->run(job, &context);
-  }
+  run_parts(split, parts, job, &context);
 }
 
 void ZoneMap::fuse_rows(const LocalGrid& local, RowShare share) {

@@ -17,6 +17,16 @@ class WorkSplit {
   virtual void run(Job job, void* context) = 0;
 };
 
+// Runs job on `parts` parts: inline, as the one part, when there is one (or no
+// split); else on the split (the job returns at once for parts past `parts`).
+inline void run_parts(WorkSplit* split, int parts, WorkSplit::Job job, void* context) {
+  if (split == nullptr || parts <= 1) {
+    job(context, 0, 1);
+    return;
+  }
+  split->run(job, context);
+}
+
 // A part's share of `count` rows, interleaved (rows part, part + parts, ...) so
 // that each part gets near and far rows alike.
 struct RowShare {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstring>
 
 #include "simd_u16.hpp"
 
@@ -23,37 +24,89 @@ DepthRangeTable::DepthRangeTable(int width, int height) : width_(width), height_
   }
 }
 
-void DepthRangeTable::build() {
+void DepthRangeTable::build(WorkSplit* split) {
   if (levels_ < 2) return;
-  // Level 1: the pixels' own pairs are written into level 1's storage first,
-  // then turned into 2x2 squares in place (every read is at or after the write
-  // position, so the pass may run forwards). A missing pixel is 0xFFFF in both
-  // halves: min ignores it, and 0xFFFF - max must not count it either.
-  {
-    std::uint16_t* out = pairs_[1];
-    const std::uint16_t* c = codes_.get();
-    const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint16_t v = c[i];
-      out[2 * i] = v;
-      out[2 * i + 1] = static_cast<std::uint16_t>((0xFFFF - v) | (v == kMissing ? 0xFFFF : 0));
+  // A level at a time (each reads the one below it whole), its rows shared
+  // among the split's parts in bands: every level is the same for any split.
+  const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxBuildParts);
+  struct Context {
+    DepthRangeTable* self;
+    int level;
+    int parts;
+  } context{this, 1, parts};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    const Context& x = *static_cast<const Context*>(c);
+    if (part >= x.parts) return;
+    const int h = x.self->height_;  // parts write disjoint rows of each level
+    const int first = h * part / x.parts, end = h * (part + 1) / x.parts;
+    if (x.level == 1) {
+      x.self->first_level_rows(first, end);
+    } else {
+      x.self->square_rows(x.self->pairs_[static_cast<std::size_t>(x.level - 1)],
+                          x.self->pairs_[static_cast<std::size_t>(x.level)], 1 << (x.level - 1),
+                          first, end);
     }
-    square_pass(out, out, 1);
-  }
-  // Level l from level l-1: the minimum of four pairs, element-wise.
-  for (int l = 2; l < levels_; ++l) {
-    square_pass(pairs_[static_cast<std::size_t>(l - 1)], pairs_[static_cast<std::size_t>(l)],
-                1 << (l - 1));
+  };
+  for (; context.level < levels_; ++context.level) run_parts(split, parts, job, &context);
+}
+
+namespace {
+
+// A code's half of a (min, 0xFFFF - max) pair: a missing pixel is 0xFFFF in
+// both halves, so that neither minimum counts it.
+inline U16x8 inverse_of(U16x8 c) {
+  const auto missing = reinterpret_cast<U16x8>(c == simd::splat_u16(DepthRangeTable::kMissing));
+  return (simd::splat_u16(0xFFFF) - c) | missing;
+}
+
+}  // namespace
+
+// Level 1 straight from the codes: the pair of each 2x2 square (cut at the
+// image's right and bottom edges), rows [first, end).
+void DepthRangeTable::first_level_rows(int first, int end) {
+  std::uint16_t* out = pairs_[1];
+  const std::uint16_t* c = codes_.get();
+  const std::size_t w = static_cast<std::size_t>(width_);
+  for (int y = first; y < end; ++y) {
+    const std::uint16_t* a = c + static_cast<std::size_t>(y) * w;
+    const std::uint16_t* b = c + static_cast<std::size_t>(std::min(y + 1, height_ - 1)) * w;
+    std::uint16_t* o = out + 2 * static_cast<std::size_t>(y) * w;
+    std::size_t x = 0;
+    for (; x + 9 <= w; x += 8) {
+      const U16x8 a0 = load_u16(a + x), a1 = load_u16(a + x + 1);
+      const U16x8 b0 = load_u16(b + x), b1 = load_u16(b + x + 1);
+      const U16x8 mn = min_u16(min_u16(a0, a1), min_u16(b0, b1));
+      const U16x8 inv =
+          min_u16(min_u16(inverse_of(a0), inverse_of(a1)), min_u16(inverse_of(b0), inverse_of(b1)));
+      const U16x8 lo = __builtin_shufflevector(mn, inv, 0, 8, 1, 9, 2, 10, 3, 11);
+      const U16x8 hi = __builtin_shufflevector(mn, inv, 4, 12, 5, 13, 6, 14, 7, 15);
+      std::memcpy(o + 2 * x, &lo, sizeof lo);
+      std::memcpy(o + 2 * x + 8, &hi, sizeof hi);
+    }
+    for (; x < w; ++x) {
+      const std::size_t x1 = std::min(x + 1, w - 1);
+      const std::uint16_t v[4] = {a[x], a[x1], b[x], b[x1]};
+      std::uint16_t mn = 0xFFFF, inv = 0xFFFF;
+      for (const std::uint16_t code : v) {
+        mn = std::min(mn, code);
+        inv = std::min(inv, code == kMissing ? std::uint16_t{0xFFFF}
+                                             : static_cast<std::uint16_t>(0xFFFF - code));
+      }
+      o[2 * x] = mn;
+      o[2 * x + 1] = inv;
+    }
   }
 }
 
 // out(x, y) = min of in at (x, y), (x + half, y), (x, y + half), (x + half, y + half),
-// cut at the image's right and bottom edges; element-wise over (min, ~max) pairs.
-void DepthRangeTable::square_pass(const std::uint16_t* in, std::uint16_t* out, int half) const {
+// cut at the image's right and bottom edges; element-wise over (min, ~max)
+// pairs, rows [first, end).
+void DepthRangeTable::square_rows(const std::uint16_t* in, std::uint16_t* out, int half, int first,
+                                  int end) {
   const std::size_t row_values = 2 * static_cast<std::size_t>(width_);
   const std::size_t inner = 2 * static_cast<std::size_t>(std::max(width_ - half, 0));
   const std::size_t shift = 2 * static_cast<std::size_t>(half);
-  for (int y = 0; y < height_; ++y) {
+  for (int y = first; y < end; ++y) {
     const std::uint16_t* a = in + static_cast<std::size_t>(y) * row_values;
     const std::uint16_t* b =
         in + static_cast<std::size_t>(std::min(y + half, height_ - 1)) * row_values;
@@ -62,7 +115,7 @@ void DepthRangeTable::square_pass(const std::uint16_t* in, std::uint16_t* out, i
     for (; i + 8 <= inner; i += 8) {
       const U16x8 m = min_u16(min_u16(load_u16(a + i), load_u16(a + i + shift)),
                               min_u16(load_u16(b + i), load_u16(b + i + shift)));
-      std::memcpy(o + i, &m, sizeof m);  // o may be a: every read above is at or after i
+      std::memcpy(o + i, &m, sizeof m);
     }
     for (; i < inner; ++i) {
       o[i] = std::min(std::min(a[i], a[i + shift]), std::min(b[i], b[i + shift]));

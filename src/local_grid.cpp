@@ -8,8 +8,6 @@
 namespace zonemap {
 namespace {
 
-constexpr int kMaxBlurRadius = 2;
-
 // Divides by 2^shift, rounding half away from zero, so that blur(-x) == -blur(x).
 int symmetric_shift(int value, int shift) {
   const int half = 1 << (shift - 1);
@@ -61,17 +59,21 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
       cell_count_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
                   static_cast<std::size_t>(dims[2])),
       cells_(new LocalCell[cell_count_]()),
-      line_(new std::int16_t[static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]()),
-      saved_(new LocalCell[static_cast<std::size_t>(dims[0]) * (2 * kMaxBlurRadius + 1)]()),
-      sum_(new std::int16_t[static_cast<std::size_t>(dims[0])]()),
+      line_(new std::int16_t[kMaxFinishParts *
+                             static_cast<std::size_t>(dims[0] + 2 * kMaxBlurRadius)]()),
+      saved_(new LocalCell[kMaxFinishParts * static_cast<std::size_t>(dims[0]) *
+                           (2 * kMaxBlurRadius + 1)]()),
+      sum_(new std::int16_t[kMaxFinishParts * static_cast<std::size_t>(dims[0])]()),
       spans_(new RowSpan[static_cast<std::size_t>(dims[1]) * static_cast<std::size_t>(dims[2])]()) {
   reset(CellIndex{});
 }
 
 std::size_t LocalGrid::reserved_bytes() const {
   const std::size_t row = static_cast<std::size_t>(dims_[0]);
-  return cell_count_ * sizeof(LocalCell) + (row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
-         row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t) +
+  return cell_count_ * sizeof(LocalCell) +
+         kMaxFinishParts *
+             ((row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
+              row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t)) +
          static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]) * sizeof(RowSpan);
 }
 
@@ -177,7 +179,7 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
   return visited;
 }
 
-void LocalGrid::finish(int blur_radius) {
+void LocalGrid::finish(int blur_radius, WorkSplit* split) {
   const int radius = std::clamp(blur_radius, 0, kMaxBlurRadius);
   for (int a = 0; a < 3; ++a) {
     const std::size_t k = static_cast<std::size_t>(a);
@@ -188,8 +190,37 @@ void LocalGrid::finish(int blur_radius) {
       active_lo_[2] > active_hi_[2]) {
     return;
   }
+  // Three steps, each shared among the split's parts (each its own scratch
+  // rows): the x rows (unknown for untouched, their spans, the x blur), then the
+  // y lines of each z plane, then the z lines of each y plane. Every part writes
+  // rows, planes of its own: the grid is the same for any split.
+  const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxFinishParts);
+  struct Context {
+    LocalGrid* self;
+    int radius;
+    int step;
+    int parts;
+  } context{this, radius, 0, parts};
+  const WorkSplit::Job job = [](void* c, int part, int) {
+    const Context& x = *static_cast<const Context*>(c);
+    if (part >= x.parts) return;
+    const RowShare share = share_of(part, x.parts);
+    if (x.step == 0) {
+      x.self->finish_rows(x.radius, share, part);
+    } else {
+      x.self->blur_across(x.step, x.radius, share, part);
+    }
+  };
+  for (context.step = 0; context.step <= (radius == 0 ? 0 : 2); ++context.step) {
+    run_parts(split, parts, job, &context);
+  }
+}
+
+// The x rows of planes z = first + k step: untouched cells to unknown (0), each
+// row's span of non-zero cells, then (radius > 0) the x blur.
+void LocalGrid::finish_rows(int radius, RowShare share, int part) {
   const int n = active_hi_[0] - active_lo_[0] + 1;
-  for (int z = active_lo_[2]; z <= active_hi_[2]; ++z)
+  for (int z = active_lo_[2] + share.first; z <= active_hi_[2]; z += share.step)
     for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
       LocalCell* row = cells_.get() + index(active_lo_[0], y, z);
       LocalCell any = 0;
@@ -206,64 +237,55 @@ void LocalGrid::finish(int blur_radius) {
       while (row[last] == 0) --last;
       span.lo = active_lo_[0] + first;
       span.hi = active_lo_[0] + last;
+      if (radius > 0) blur_x_row(y, z, radius, part);
     }
-  if (radius == 0) return;
-  blur_x(radius);
-  blur_across(1, radius);
-  blur_across(2, radius);
 }
 
-void LocalGrid::blur_x(int radius) {
+// One x row (y, z) blurred along x, in the part's scratch rows.
+void LocalGrid::blur_x_row(int y, int z, int radius, int part) {
   const int x0 = active_lo_[0];
   const int n = active_hi_[0] - x0 + 1;
-  std::int16_t* line = line_.get();
+  RowSpan& span = spans_[span_index(y, z)];
+  if (span.lo > span.hi) return;  // all 0: stays 0
   if (radius == 1) {
     // The default kernel: the row's original, padded with unknown (0) on both
-    // sides, in the saved rows; one vectorised pass writes the row.
-    // Only the row's span grown by one (outside it every input is 0).
-    LocalCell* padded = saved_.get();
+    // sides, in the saved rows; one vectorised pass writes the row. Only the
+    // row's span grown by one (outside it every input is 0).
+    LocalCell* padded = saved_rows(part);
+    span.lo = std::max(span.lo - 1, x0);
+    span.hi = std::min(span.hi + 1, active_hi_[0]);
+    const int count = span.hi - span.lo + 1;
+    LocalCell* row = cells_.get() + index(span.lo, y, z);
     padded[0] = 0;
-    for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
-      for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
-        RowSpan& span = spans_[span_index(y, z)];
-        if (span.lo > span.hi) continue;  // all 0: stays 0
-        span.lo = std::max(span.lo - 1, x0);
-        span.hi = std::min(span.hi + 1, active_hi_[0]);
-        const int count = span.hi - span.lo + 1;
-        LocalCell* row = cells_.get() + index(span.lo, y, z);
-        std::copy_n(row, count, padded + 1);
-        padded[count + 1] = 0;
-        blur_row3(padded, padded + 1, padded + 2, row, count);
-      }
-    }
+    std::copy_n(row, count, padded + 1);
+    padded[count + 1] = 0;
+    blur_row3(padded, padded + 1, padded + 2, row, count);
     return;
   }
-  for (int z = active_lo_[2]; z <= active_hi_[2]; ++z) {
-    for (int y = active_lo_[1]; y <= active_hi_[1]; ++y) {
-      RowSpan& span = spans_[span_index(y, z)];
-      if (span.lo > span.hi) continue;    // all 0: stays 0
-      span = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
-      LocalCell* row = cells_.get() + index(x0, y, z);
-      // Outside the active region every cell is unknown (0): zero padding is exact.
-      for (int i = 0; i < radius; ++i) {
-        line[i] = 0;
-        line[radius + n + i] = 0;
-      }
-      for (int i = 0; i < n; ++i) line[radius + i] = row[i];
-      for (int i = 0; i < n; ++i) {
-        const std::int16_t* w = line + i;
-        const int sum =
-            radius == 1 ? w[0] + 2 * w[1] + w[2] : w[0] + 4 * w[1] + 6 * w[2] + 4 * w[3] + w[4];
-        row[i] = static_cast<LocalCell>(symmetric_shift(sum, 2 * radius));
-      }
-    }
+  std::int16_t* line = line_.get() + static_cast<std::size_t>(part) *
+                                         static_cast<std::size_t>(dims_[0] + 2 * kMaxBlurRadius);
+  span = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
+  LocalCell* row = cells_.get() + index(x0, y, z);
+  // Outside the active region every cell is unknown (0): zero padding is exact.
+  for (int i = 0; i < radius; ++i) {
+    line[i] = 0;
+    line[radius + n + i] = 0;
+  }
+  for (int i = 0; i < n; ++i) line[radius + i] = row[i];
+  for (int i = 0; i < n; ++i) {
+    const std::int16_t* w = line + i;
+    const int sum =
+        radius == 1 ? w[0] + 2 * w[1] + w[2] : w[0] + 4 * w[1] + 6 * w[2] + 4 * w[3] + w[4];
+    row[i] = static_cast<LocalCell>(symmetric_shift(sum, 2 * radius));
   }
 }
 
-void LocalGrid::blur_across(int axis, int radius) {
+void LocalGrid::blur_across(int axis, int radius, RowShare share, int part) {
   // Lines along `axis` are blurred all at once: each step combines whole x rows,
   // so the inner loops run over contiguous cells. The originals of the rows already
-  // overwritten are kept in saved_ (a ring of 2 * radius + 1 rows).
+  // overwritten are kept in the part's saved rows (a ring of 2 * radius + 1 rows).
+  // Sheets other = first + k step only.
+  LocalCell* saved = saved_rows(part);
   const int x0 = active_lo_[0];
   const int n = active_hi_[0] - x0 + 1;
   const int other = axis == 1 ? 2 : 1;  // the axis enumerating independent sheets
@@ -275,9 +297,9 @@ void LocalGrid::blur_across(int axis, int radius) {
   // Radius 1: the two saved rows and the row of zeros start at 0; the saved rows
   // are kept 0 outside the span last copied into each.
   RowSpan saved_span[2];
-  if (radius == 1) std::fill_n(saved_.get(), 3 * static_cast<std::size_t>(n), LocalCell{0});
-  for (int o = active_lo_[static_cast<std::size_t>(other)];
-       o <= active_hi_[static_cast<std::size_t>(other)]; ++o) {
+  if (radius == 1) std::fill_n(saved, 3 * static_cast<std::size_t>(n), LocalCell{0});
+  for (int o = active_lo_[static_cast<std::size_t>(other)] + share.first;
+       o <= active_hi_[static_cast<std::size_t>(other)]; o += share.step) {
     auto row_at = [&](int c) {
       return axis == 1 ? cells_.get() + index(x0, c, o) : cells_.get() + index(x0, o, c);
     };
@@ -290,10 +312,10 @@ void LocalGrid::blur_across(int axis, int radius) {
       // copied into them), the next row is still untouched; rows outside the
       // region are unknown (0). Only the union of the three rows' spans can be
       // non-zero: the rest of the row stays 0, and the spans follow.
-      LocalCell* zeros = saved_.get() + 2 * static_cast<std::size_t>(n);
+      LocalCell* zeros = saved + 2 * static_cast<std::size_t>(n);
       for (int b = 0; b < 2; ++b) {  // the last sheet's rows: back to 0
         if (saved_span[b].lo <= saved_span[b].hi) {
-          std::fill_n(saved_.get() + static_cast<std::size_t>(b) * n + (saved_span[b].lo - x0),
+          std::fill_n(saved + static_cast<std::size_t>(b) * n + (saved_span[b].lo - x0),
                       saved_span[b].hi - saved_span[b].lo + 1, LocalCell{0});
         }
         saved_span[b] = RowSpan{};
@@ -304,14 +326,14 @@ void LocalGrid::blur_across(int axis, int radius) {
         const RowSpan cur_span = span;
         const RowSpan next_span = c < hi ? span_at(c + 1) : RowSpan{};
         RowSpan out{std::numeric_limits<std::int32_t>::max(), -1};
-        for (const RowSpan& part : {prev_span, cur_span, next_span}) {
-          if (part.lo > part.hi) continue;
-          out.lo = std::min(out.lo, part.lo);
-          out.hi = std::max(out.hi, part.hi);
+        for (const RowSpan& near : {prev_span, cur_span, next_span}) {
+          if (near.lo > near.hi) continue;
+          out.lo = std::min(out.lo, near.lo);
+          out.hi = std::max(out.hi, near.hi);
         }
         const int k = (c - lo) & 1;
         // saved[k] held row c - 2: back to 0, then this row's original span.
-        LocalCell* cur = saved_.get() + static_cast<std::size_t>(k) * n;
+        LocalCell* cur = saved + static_cast<std::size_t>(k) * n;
         if (saved_span[k].lo <= saved_span[k].hi) {
           std::fill_n(cur + (saved_span[k].lo - x0), saved_span[k].hi - saved_span[k].lo + 1,
                       LocalCell{0});
@@ -324,7 +346,7 @@ void LocalGrid::blur_across(int axis, int radius) {
         span = out.lo <= out.hi ? out : RowSpan{};
         prev_span = cur_span;
         if (out.lo > out.hi) continue;
-        const LocalCell* prev = saved_.get() + static_cast<std::size_t>(1 - k) * n;
+        const LocalCell* prev = saved + static_cast<std::size_t>(1 - k) * n;
         const LocalCell* next = c < hi ? row_at(c + 1) : zeros;
         const int from = out.lo - x0;
         blur_row3(prev + from, cur + from, next + from, row_at(c) + from, out.hi - out.lo + 1);
@@ -332,10 +354,10 @@ void LocalGrid::blur_across(int axis, int radius) {
       continue;
     }
     auto saved_row = [&](int c) {
-      return saved_.get() + static_cast<std::size_t>(((c % ring) + ring) % ring) * n;
+      return saved + static_cast<std::size_t>(((c % ring) + ring) % ring) * n;
     };
     for (int c = lo; c <= hi; ++c) {
-      std::int16_t* sum = sum_.get();
+      std::int16_t* sum = sum_.get() + static_cast<std::size_t>(part) * dims_[0];
       std::fill_n(sum, n, std::int16_t{0});
       for (int k = -radius; k <= radius; ++k) {
         const int cc = c + k;

@@ -215,7 +215,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   // The environment cube follows the camera (centred, or reaching below it).
   const CellIndex camera_cell = cell_of(world_T_camera.translation());
   const CellIndex origin = zones_.environment_origin(camera_cell, camera_.world_z_up);
-  report.zones_allocated = zones_.move_environment(origin);
+  report.zones_allocated = zones_.move_environment(origin, split_);
   local_.reset(origin);
   filter_.begin(frame.depth);
   sample_hits_below(frame, world_T_camera, origin, &report);
@@ -239,7 +239,7 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
 void Mapper::integrate_projective(const DepthFrameView& frame,
                                   const Eigen::Isometry3d& world_T_camera, FrameReport* report) {
   classify_depths(frame, report);
-  depths_.build();
+  depths_.build(split_);
   const ProjectiveStats drawn = projective_.draw(depths_, world_T_camera, local_, split_);
   report->cells_visited = drawn.cells_evaluated;
   report->cells_block_free = drawn.cells_block_free;
@@ -399,7 +399,7 @@ void Mapper::sample_hits_below(const DepthFrameView& frame, const Eigen::Isometr
 
 void Mapper::finish_and_fuse(const Eigen::Vector3f& camera_cells,
                              const Eigen::Isometry3d& world_T_camera) {
-  local_.finish(config_.blur_radius);
+  local_.finish(config_.blur_radius, split_);
   if (config_.fusion == MapConfig::Fusion::kRangeWeighted) {
     const Eigen::Vector3f axis_per_cell =
         (world_T_camera.linear().col(2) * config_.cell_size_m).cast<float>();

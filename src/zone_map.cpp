@@ -97,7 +97,25 @@ int ZoneMap::live_zone_count() const {
       std::count_if(slots_.begin(), slots_.end(), [](const Slot& s) { return s.live; }));
 }
 
-int ZoneMap::move_environment(const CellIndex& origin) {
+// A new zone's cells to unknown, in as many contiguous pieces as the split has
+// parts (a zone is megabytes: on the mapping workers' cores too).
+void ZoneMap::clear_cells(FusedCell* cells, WorkSplit* split) const {
+  const int parts = split == nullptr ? 1 : split->parts();
+  struct Context {
+    FusedCell* cells;
+    std::size_t count;
+  } context{cells, cells_per_zone_};
+  const WorkSplit::Job job = [](void* c, int part, int all) {
+    const Context& x = *static_cast<const Context*>(c);
+    const std::size_t n = x.count / static_cast<std::size_t>(all);
+    const std::size_t first = n * static_cast<std::size_t>(part);
+    const std::size_t end = part == all - 1 ? x.count : first + n;
+    std::fill(x.cells + first, x.cells + end, FusedCell{0});
+  };
+  run_parts(split, parts, job, &context);
+}
+
+int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
   const ZoneKey low = key_of(origin);
   const ZoneKey high =
       key_of(CellIndex{origin.x + dims_[0] - 1, origin.y + dims_[1] - 1, origin.z + dims_[2] - 1});
@@ -131,7 +149,7 @@ int ZoneMap::move_environment(const CellIndex& origin) {
         if (free_slot == nullptr) continue;
         free_slot->key = key;
         free_slot->live = true;
-        std::fill_n(free_slot->cells, cells_per_zone_, FusedCell{0});
+        clear_cells(free_slot->cells, split);
         ++zones_allocated_;
         ++allocated;
         ZoneView view = view_of(*free_slot);

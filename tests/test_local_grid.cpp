@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "test_support.hpp"
 #include "zonemap/local_grid.hpp"
 #include "zonemap/zone_map.hpp"
 
@@ -177,13 +178,16 @@ TEST(LocalGrid, BlurEqualsThePlainThreePassBinomial) {
   // with most x rows left empty (the blur and fusion pass over all-zero rows:
   // lone rows, pairs and runs of them, next to the region's faces); then with
   // short runs of values at shifting places (they work on each row's span only).
+  // Each also blurred in three parts (the mapping workers' split).
   const std::array<int, 3> n = {23, 17, 11};
   const std::array<int, 3> touched_lo = {3, 2, 1}, touched_hi = {19, 14, 9};
   std::uint32_t state = 12345;
-  for (int variant = 0; variant < 6; ++variant) {
+  testing::BackwardsSplit three(3);
+  for (int variant = 0; variant < 12; ++variant) {
+    WorkSplit* split = variant >= 6 ? &three : nullptr;
     const int radius = 1 + variant % 2;
-    const bool sparse_rows = variant == 2 || variant == 3;
-    const bool short_runs = variant >= 4;  // values in a few cells of each row, here and there
+    const bool sparse_rows = variant % 6 == 2 || variant % 6 == 3;
+    const bool short_runs = variant % 6 >= 4;  // values in a few cells of each row, here and there
     LocalGrid grid(n);
     grid.reset(CellIndex{});
     grid.extend_touched(touched_lo[0], touched_lo[1], touched_lo[2], touched_hi[0], touched_hi[1],
@@ -202,7 +206,7 @@ TEST(LocalGrid, BlurEqualsThePlainThreePassBinomial) {
           values[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] = v;
         }
       }
-    grid.finish(radius);
+    grid.finish(radius, split);
     std::array<int, 3> lo{}, hi{};
     for (int a = 0; a < 3; ++a) {
       lo[static_cast<std::size_t>(a)] =

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <tuple>
 
 #include "hal/config/yaml_config.hpp"
 #include "hal/os/allocation_counter.hpp"
@@ -102,8 +103,15 @@ void expect_agreement(const Agreement& a, const std::string& what, double min_sa
 
 TEST(DepthRangeTable, RangesMatchBruteForce) {
   // Odd sizes so that squares are cut at the right and bottom edges; missing,
-  // far and real codes mixed, with whole missing patches.
-  for (const auto& [width, height] : {std::pair{37, 23}, std::pair{200, 130}, std::pair{1, 9}}) {
+  // far and real codes mixed, with whole missing patches. Built whole and in
+  // three bands of rows.
+  testing::BackwardsSplit three(3);
+  for (const auto& [width, height, split] : {std::tuple<int, int, WorkSplit*>{37, 23, nullptr},
+                                             {200, 130, nullptr},
+                                             {1, 9, nullptr},
+                                             {37, 23, &three},
+                                             {200, 130, &three},
+                                             {1, 9, &three}}) {
     DepthRangeTable table(width, height);
     sim::Rng rng(static_cast<std::uint64_t>(width * 1000 + height));
     for (int i = 0; i < width * height; ++i) {
@@ -115,7 +123,7 @@ TEST(DepthRangeTable, RangesMatchBruteForce) {
     for (int y = 3; y < std::min(height, 12); ++y)
       for (int x = 0; x < std::min(width, 15); ++x)
         table.base()[y * width + x] = DepthRangeTable::kMissing;
-    table.build();
+    table.build(split);
     for (int k = 0; k < 6000; ++k) {
       const auto pick = [&](int n) { return static_cast<int>(rng.uniform() * n); };
       int x0 = pick(width), x1 = pick(width), y0 = pick(height), y1 = pick(height);

@@ -13,6 +13,7 @@
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/ins_gate.hpp"
+#include "zonemap/work_split.hpp"
 
 namespace zonemap::testing {
 
@@ -165,5 +166,19 @@ inline std::string write_test_scenario(const std::string& name, const std::strin
   std::ofstream(path) << config;
   return path;
 }
+
+// A split whose parts run one after another, the last first: a part that read
+// what another part writes would see it unwritten.
+class BackwardsSplit final : public WorkSplit {
+ public:
+  explicit BackwardsSplit(int parts) : parts_(parts) {}
+  int parts() const override { return parts_; }
+  void run(Job job, void* context) override {
+    for (int p = parts_ - 1; p >= 0; --p) job(context, p, parts_);
+  }
+
+ private:
+  int parts_;
+};
 
 }  // namespace zonemap::testing

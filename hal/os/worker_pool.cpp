@@ -1,10 +1,36 @@
 #include "hal/os/worker_pool.hpp"
 
 #include <algorithm>
+#include <chrono>
 
 #include "hal/os/realtime.hpp"
 
 namespace zonemap::os {
+namespace {
+
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+
+// Spins while `waiting()` for at most kSpinBeforeSleep; true when it still is.
+// Bounded, so that a worker at SCHED_FIFO never starves its CPU's other threads
+// for longer than that (see doorbell.hpp).
+constexpr auto kSpinBeforeSleep = std::chrono::microseconds(40);
+template <class Waiting>
+bool spin_while(Waiting&& waiting) {
+  const auto until = std::chrono::steady_clock::now() + kSpinBeforeSleep;
+  for (int i = 0;; ++i) {
+    if (!waiting()) return false;
+    cpu_relax();
+    if ((i & 63) == 63 && std::chrono::steady_clock::now() >= until) return waiting();
+  }
+}
+
+}  // namespace
 
 WorkerPool::WorkerPool(const WorkerOptions& options) : parts_(std::max(1, options.parts)) {
   std::vector<std::string> started(static_cast<std::size_t>(parts_));
@@ -49,6 +75,7 @@ void WorkerPool::run(Job job, void* context) {
   round_.fetch_add(1, std::memory_order_seq_cst);  // publishes job_ and context_
   start_.ring();
   job(context, 0, parts_);
+  spin_while([this] { return running_.load(std::memory_order_seq_cst) != 0; });
   for (;;) {
     const std::uint32_t ticket = done_.ticket();
     if (running_.load(std::memory_order_seq_cst) == 0) return;
@@ -63,7 +90,14 @@ void WorkerPool::work(int part) {
     if (stopping_.load(std::memory_order_seq_cst)) return;
     const std::uint32_t round = round_.load(std::memory_order_seq_cst);
     if (round == seen) {
-      start_.wait(ticket);
+      // The next round of the same frame usually follows within microseconds:
+      // a short look before sleeping saves a futex wake-up and a reschedule.
+      if (spin_while([this, seen] {
+            return round_.load(std::memory_order_seq_cst) == seen &&
+                   !stopping_.load(std::memory_order_seq_cst);
+          })) {
+        start_.wait(ticket);
+      }
       continue;
     }
     seen = round;

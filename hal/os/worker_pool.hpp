@@ -1,7 +1,10 @@
 // The board's cores for the mapping step: a fixed set of worker threads started
 // once, each running its part of every job the mapping thread hands out
 // (zonemap::WorkSplit). The mapping thread runs part 0 itself, then waits for
-// the others on a doorbell. No lock and no allocation per job.
+// the others. Both sides look for what they wait for during a bounded 40 µs
+// before they sleep on a doorbell: a frame hands out several jobs within
+// milliseconds, and a futex wake-up costs tens of microseconds on a busy core.
+// No lock and no allocation per job.
 #pragma once
 
 #include <atomic>

@@ -17,6 +17,8 @@
 #include <cstdint>
 #include <memory>
 
+#include "zonemap/work_split.hpp"
+
 namespace zonemap {
 
 class DepthRangeTable {
@@ -30,10 +32,12 @@ class DepthRangeTable {
 
   DepthRangeTable(int width, int height);
 
-  // Level 0: one code per pixel. Then build() makes the other levels.
+  // Level 0: one code per pixel. Then build() makes the other levels, each
+  // shared among the split's parts (bands of rows) when one is given.
   std::uint16_t* base() { return codes_.get(); }
   const std::uint16_t* codes() const { return codes_.get(); }
-  void build();
+  void build(WorkSplit* split = nullptr);
+  static constexpr int kMaxBuildParts = 8;
 
   // Minimum and maximum code over [x0, x1] x [y0, y1] (inclusive, inside the
   // image), missing pixels left out: lo > hi when every pixel is missing.
@@ -88,7 +92,8 @@ class DepthRangeTable {
   std::size_t reserved_bytes() const { return bytes_; }
 
  private:
-  void square_pass(const std::uint16_t* in, std::uint16_t* out, int half) const;
+  void first_level_rows(int first, int end);
+  void square_rows(const std::uint16_t* in, std::uint16_t* out, int half, int first, int end);
   // Thin rectangles (one pixel wide) and rectangles larger than two squares of
   // the largest level.
   void range_slow(int x0, int y0, int x1, int y1, int l, std::uint16_t* lo,

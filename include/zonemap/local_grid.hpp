@@ -11,6 +11,7 @@
 
 #include "zonemap/cell.hpp"
 #include "zonemap/sensor_model.hpp"
+#include "zonemap/work_split.hpp"
 
 namespace zonemap {
 
@@ -43,7 +44,11 @@ class LocalGrid {
   // (unknown) and applies the separable binomial blur of the given radius (1:
   // [1 2 1]/4, 2: [1 4 6 4 1]/16) along x, y and z there. Values outside count as
   // unknown (0). Rounds half away from zero, so the blur is symmetric in sign.
-  void finish(int blur_radius);
+  // With a split, its parts share each of the blur's steps (rows, planes of
+  // their own): the grid is the same for any split.
+  void finish(int blur_radius, WorkSplit* split = nullptr);
+  static constexpr int kMaxFinishParts = 8;
+  static constexpr int kMaxBlurRadius = 2;
 
   // Past the paper (eq. 7 adds every view alike), after finish(): each positive
   // cell scaled by how sharply its view places a surface,
@@ -90,13 +95,20 @@ class LocalGrid {
   }
 
  private:
-  void blur_x(int radius);
-  void blur_across(int axis, int radius);  // y (rows) or z (planes), vectorisable over x
+  void finish_rows(int radius, RowShare share, int part);
+  void blur_x_row(int y, int z, int radius, int part);
+  // y (rows) or z (planes), vectorisable over x; the share's sheets only.
+  void blur_across(int axis, int radius, RowShare share, int part);
+  LocalCell* saved_rows(int part) {  // a part's 2 * kMaxBlurRadius + 1 scratch rows
+    return saved_.get() + static_cast<std::size_t>(part) * static_cast<std::size_t>(dims_[0]) *
+                              (2 * kMaxBlurRadius + 1);
+  }
 
   std::array<int, 3> dims_;
   std::size_t cell_count_;
   CellIndex origin_;
   std::unique_ptr<LocalCell[]> cells_;
+  // Scratch, one of each per part of the blur (kMaxFinishParts):
   std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
   std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)
   std::unique_ptr<std::int16_t[]> sum_;   // one x row of partial sums

@@ -69,8 +69,9 @@ class ZoneMap {
 
   // Makes the zones overlapping the environment with minimum corner `origin` hold
   // a grid: new ones are taken from the pool and cleared, zones left behind are
-  // discarded. Returns how many zones were newly allocated.
-  int move_environment(const CellIndex& origin);
+  // discarded. Returns how many zones were newly allocated. With a split, its
+  // parts clear the new zones' cells (each a piece of its own).
+  int move_environment(const CellIndex& origin, WorkSplit* split = nullptr);
 
   // Eq. (7): m_t = m_{t-1} + m̂_t for every cell of the local grid, saturating at
   // ±limit. The local grid's origin must be the current environment origin.
@@ -105,6 +106,7 @@ class ZoneMap {
   const std::array<int, 3>& zone_dims() const { return dims_; }
 
  private:
+  void clear_cells(FusedCell* cells, WorkSplit* split) const;
   void fuse_rows(const LocalGrid& local, RowShare share);
   struct Slot {
     ZoneKey key;

@@ -444,14 +444,15 @@ double simulated_median_ms(const Frames& f, const MapConfig& config, int parts) 
   return summarise(ms, 0).median_ms;
 }
 
-// The shared parts (frustum walk, block classes, fusion) among worker threads,
-// the rest on the mapping thread; the map is the same for any count (WorkerPool.*).
+// The shared parts (depth classification, range table, block classes, frustum
+// walk, blur, zone clearing, fusion) among worker threads, the rest on the
+// mapping thread; the map is the same for any count (WorkerPool.*).
 void workers_comparison(const Frames& f) {
   const unsigned cores = std::thread::hardware_concurrency();
   std::printf(
-      "\nmapping workers (projective 0.5 m, tree line; depth classification, frustum walk, block\n"
-      "classes and fusion shared, the range table and the blur on the mapping thread): ms\n"
-      "median, the least of three passes;\n"
+      "\nmapping workers (projective 0.5 m, tree line; depth classification, range table, block\n"
+      "classes, frustum walk, blur, zone clearing and fusion shared; range weighting and the\n"
+      "zone bookkeeping on the mapping thread): ms median, the least of three passes;\n"
       "simulated = the parts run one after another and timed, a frame counted as if they ran\n"
       "at once; threads = on this machine's %u cores\n",
       cores);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "hal/os/clock.hpp"
 #include "hal/os/realtime.hpp"
 
 namespace zonemap::os {
@@ -22,11 +23,11 @@ inline void cpu_relax() {
 constexpr auto kSpinBeforeSleep = std::chrono::microseconds(40);
 template <class Waiting>
 bool spin_while(Waiting&& waiting) {
-  const auto until = std::chrono::steady_clock::now() + kSpinBeforeSleep;
+  const Clock::time_point until = Clock::now() + kSpinBeforeSleep;
   for (int i = 0;; ++i) {
     if (!waiting()) return false;
     cpu_relax();
-    if ((i & 63) == 63 && std::chrono::steady_clock::now() >= until) return waiting();
+    if ((i & 63) == 63 && Clock::now() >= until) return waiting();
   }
 }
 

@@ -29,25 +29,18 @@ void DepthRangeTable::build(WorkSplit* split) {
   // A level at a time (each reads the one below it whole), its rows shared
   // among the split's parts in bands: every level is the same for any split.
   const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxBuildParts);
-  struct Context {
-    DepthRangeTable* self;
-    int level;
-    int parts;
-  } context{this, 1, parts};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    const Context& x = *static_cast<const Context*>(c);
-    if (part >= x.parts) return;
-    const int h = x.self->height_;  // parts write disjoint rows of each level
-    const int first = h * part / x.parts, end = h * (part + 1) / x.parts;
-    if (x.level == 1) {
-      x.self->first_level_rows(first, end);
-    } else {
-      x.self->square_rows(x.self->pairs_[static_cast<std::size_t>(x.level - 1)],
-                          x.self->pairs_[static_cast<std::size_t>(x.level)], 1 << (x.level - 1),
-                          first, end);
-    }
-  };
-  for (; context.level < levels_; ++context.level) run_parts(split, parts, job, &context);
+  for (int level = 1; level < levels_; ++level) {
+    for_each_part(split, parts, [&](int part, int all) {
+      // Parts write disjoint rows of each level.
+      const int first = height_ * part / all, end = height_ * (part + 1) / all;
+      if (level == 1) {
+        first_level_rows(first, end);
+      } else {
+        square_rows(pairs_[static_cast<std::size_t>(level - 1)],
+                    pairs_[static_cast<std::size_t>(level)], 1 << (level - 1), first, end);
+      }
+    });
+  }
 }
 
 namespace {

@@ -195,24 +195,14 @@ void LocalGrid::finish(int blur_radius, WorkSplit* split) {
   // y lines of each z plane, then the z lines of each y plane. Every part writes
   // rows, planes of its own: the grid is the same for any split.
   const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxFinishParts);
-  struct Context {
-    LocalGrid* self;
-    int radius;
-    int step;
-    int parts;
-  } context{this, radius, 0, parts};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    const Context& x = *static_cast<const Context*>(c);
-    if (part >= x.parts) return;
-    const RowShare share = share_of(part, x.parts);
-    if (x.step == 0) {
-      x.self->finish_rows(x.radius, share, part);
-    } else {
-      x.self->blur_across(x.step, x.radius, share, part);
-    }
-  };
-  for (context.step = 0; context.step <= (radius == 0 ? 0 : 2); ++context.step) {
-    run_parts(split, parts, job, &context);
+  for (int step = 0; step <= (radius == 0 ? 0 : 2); ++step) {
+    for_each_part(split, parts, [&](int part, int all) {
+      if (step == 0) {
+        finish_rows(radius, share_of(part, all), part);
+      } else {
+        blur_across(step, radius, share_of(part, all), part);
+      }
+    });
   }
 }
 

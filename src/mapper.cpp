@@ -255,26 +255,15 @@ void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
   // Bands of rows, one per part (each band's filter reads the r rows before it):
   // the codes and the integer sums are the same for any number of parts.
   const int parts = split_ == nullptr ? 1 : std::min(split_->parts(), kMaxDepthParts);
-  struct Context {
-    Mapper* self;
-    const DepthFrameView* frame;
-    int parts;
-  } context{this, &frame, parts};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    Context& x = *static_cast<Context*>(c);
-    if (part >= x.parts) return;
-    Mapper& m = *x.self;
-    const int h = x.frame->height;
-    const int first = h * part / x.parts, end = h * (part + 1) / x.parts;
-    DepthFilter& filter =
-        part == 0 ? m.filter_ : m.part_filters_[static_cast<std::size_t>(part - 1)];
-    std::uint8_t* sky = m.sky_flags_.get() + static_cast<std::size_t>(part) * 3 *
-                                                 static_cast<std::size_t>(x.frame->width);
-    filter.begin(x.frame->depth, first);
-    m.part_counts_[static_cast<std::size_t>(part)] =
-        m.classify_rows(*x.frame, first, end, filter, sky);
-  };
-  run_parts(split_, parts, job, &context);
+  for_each_part(split_, parts, [&](int part, int all) {
+    const int h = frame.height;
+    const int first = h * part / all, end = h * (part + 1) / all;
+    DepthFilter& filter = part == 0 ? filter_ : part_filters_[static_cast<std::size_t>(part - 1)];
+    std::uint8_t* sky = sky_flags_.get() +
+                        static_cast<std::size_t>(part) * 3 * static_cast<std::size_t>(frame.width);
+    filter.begin(frame.depth, first);
+    part_counts_[static_cast<std::size_t>(part)] = classify_rows(frame, first, end, filter, sky);
+  });
   DepthCounts all;
   for (int p = 0; p < parts; ++p) {
     const DepthCounts& c = part_counts_[static_cast<std::size_t>(p)];

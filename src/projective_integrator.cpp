@@ -676,17 +676,8 @@ void ProjectiveIntegrator::classify_blocks(const DepthRangeTable& depths,
   const Eigen::Vector3d step_x_camera = rt.col(0) * side;
   const BlockSetup b{side, half_z, rt, t, base, step_x_camera, projection, frustum};
   const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxParts);
-  struct Context {
-    const ProjectiveIntegrator* self;
-    const DepthRangeTable* depths;
-    const BlockSetup* b;
-    int parts;
-  } context{this, &depths, &b, parts};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    const Context& x = *static_cast<const Context*>(c);
-    if (part < x.parts) x.self->classify_block_rows(*x.depths, *x.b, share_of(part, x.parts));
-  };
-  run_parts(split, parts, job, &context);
+  for_each_part(split, parts,
+                [&](int part, int all) { classify_block_rows(depths, b, share_of(part, all)); });
 }
 
 void ProjectiveIntegrator::classify_block_rows(const DepthRangeTable& depths, const BlockSetup& b,
@@ -833,20 +824,9 @@ ProjectiveStats ProjectiveIntegrator::draw(const DepthRangeTable& depths,
   classify_blocks(depths, world_T_camera, grid.origin(), split);
   const FrameSetup f = prepare_frame(world_T_camera, grid);
   const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxParts);
-  struct Context {
-    const ProjectiveIntegrator* self;
-    const FrameSetup* f;
-    const DepthRangeTable* depths;
-    LocalGrid* grid;
-    int parts;
-    PartResult* results;
-  } context{this, &f, &depths, &grid, parts, parts_.data()};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    Context& x = *static_cast<Context*>(c);
-    if (part >= x.parts) return;
-    x.self->draw_rows(*x.f, *x.depths, share_of(part, x.parts), *x.grid, &x.results[part]);
-  };
-  run_parts(split, parts, job, &context);
+  for_each_part(split, parts, [&](int part, int all) {
+    draw_rows(f, depths, share_of(part, all), grid, &parts_[static_cast<std::size_t>(part)]);
+  });
   // Integer sums and bounds: the same whatever the number of parts.
   ProjectiveStats stats;
   PartResult all;

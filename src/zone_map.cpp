@@ -101,18 +101,12 @@ int ZoneMap::live_zone_count() const {
 // parts (a zone is megabytes: on the mapping workers' cores too).
 void ZoneMap::clear_cells(FusedCell* cells, WorkSplit* split) const {
   const int parts = split == nullptr ? 1 : split->parts();
-  struct Context {
-    FusedCell* cells;
-    std::size_t count;
-  } context{cells, cells_per_zone_};
-  const WorkSplit::Job job = [](void* c, int part, int all) {
-    const Context& x = *static_cast<const Context*>(c);
-    const std::size_t n = x.count / static_cast<std::size_t>(all);
+  for_each_part(split, parts, [&](int part, int all) {
+    const std::size_t n = cells_per_zone_ / static_cast<std::size_t>(all);
     const std::size_t first = n * static_cast<std::size_t>(part);
-    const std::size_t end = part == all - 1 ? x.count : first + n;
-    std::fill(x.cells + first, x.cells + end, FusedCell{0});
-  };
-  run_parts(split, parts, job, &context);
+    const std::size_t end = part == all - 1 ? cells_per_zone_ : first + n;
+    std::fill(cells + first, cells + end, FusedCell{0});
+  });
 }
 
 int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
@@ -162,16 +156,7 @@ int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
 
 void ZoneMap::fuse(const LocalGrid& local, WorkSplit* split) {
   const int parts = split == nullptr ? 1 : split->parts();
-  struct Context {
-    ZoneMap* self;
-    const LocalGrid* local;
-    int parts;
-  } context{this, &local, parts};
-  const WorkSplit::Job job = [](void* c, int part, int) {
-    const Context& x = *static_cast<const Context*>(c);
-    x.self->fuse_rows(*x.local, share_of(part, x.parts));
-  };
-  run_parts(split, parts, job, &context);
+  for_each_part(split, parts, [&](int part, int all) { fuse_rows(local, share_of(part, all)); });
 }
 
 void ZoneMap::fuse_rows(const LocalGrid& local, RowShare share) {

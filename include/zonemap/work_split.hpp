@@ -4,6 +4,8 @@
 // split is given). The result never depends on the number of parts.
 #pragma once
 
+#include <type_traits>
+
 namespace zonemap {
 
 class WorkSplit {
@@ -25,6 +27,24 @@ inline void run_parts(WorkSplit* split, int parts, WorkSplit::Job job, void* con
     return;
   }
   split->run(job, context);
+}
+
+// Calls part(p, parts) for every p in [0, parts) through run_parts: the part
+// is a lambda that takes what it needs by reference (it stays on the caller's
+// stack: nothing is allocated), in place of a context struct and a job
+// function at every caller.
+template <class Part>
+void for_each_part(WorkSplit* split, int parts, Part&& part) {
+  using Callable = std::remove_reference_t<Part>;
+  struct Context {
+    Callable* part;
+    int parts;
+  } context{&part, parts};
+  const WorkSplit::Job job = [](void* c, int p, int) {
+    const Context& x = *static_cast<const Context*>(c);
+    if (p < x.parts) (*x.part)(p, x.parts);
+  };
+  run_parts(split, parts, job, &context);
 }
 
 // A part's share of `count` rows, interleaved (rows part, part + parts, ...) so

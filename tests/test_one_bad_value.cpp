@@ -188,6 +188,21 @@ class OneBadValue : public ::testing::TestWithParam<BadValue> {};
 
 // Frame 12 of 24 (line 13 of depth.txt / groundtruth.txt: line 0 is a comment).
 constexpr int kLine = 13;
+
+// Sets field `field` of the kLine-th pose line to what `value` makes of the old one.
+std::function<void(const std::string&)> edit_pose_field(
+    int field, std::function<std::string(const std::string&)> value) {
+  return [field, value](const std::string& s) {
+    edit_line(s + "/groundtruth.txt", kLine, [&](const std::string& l) {
+      auto f = fields(l);
+      f[static_cast<std::size_t>(field)] = value(f[static_cast<std::size_t>(field)]);
+      return joined(f);
+    });
+  };
+}
+std::function<void(const std::string&)> set_pose_field(int field, const std::string& value) {
+  return edit_pose_field(field, [value](const std::string&) { return value; });
+}
 constexpr int kFrames = 24;
 
 const BadValue kBadValues[] = {
@@ -222,50 +237,12 @@ const BadValue kBadValues[] = {
                  [](const std::string& l) { return "nan " + fields(l)[1]; });
      },
      1, "frames_time_not_finite"},
-    {"PoseStampFarInTheFuture",
-     [](const std::string& s) {
-       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
-         auto f = fields(l);
-         f[0] = "99999.0";
-         return joined(f);
-       });
-     },
-     1, "poses_time_future"},
-    {"PoseStampFromThePast",
-     [](const std::string& s) {
-       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
-         auto f = fields(l);
-         f[0] = "0.3";
-         return joined(f);
-       });
-     },
-     1, "poses_time_past"},
-    {"PoseNan",
-     [](const std::string& s) {
-       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
-         auto f = fields(l);
-         f[2] = "nan";
-         return joined(f);
-       });
-     },
-     1, "poses_not_finite"},
-    {"PoseQuaternionNotUnit",
-     [](const std::string& s) {
-       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
-         auto f = fields(l);
-         f[7] = "1.5";
-         return joined(f);
-       });
-     },
-     1, "poses_quaternion"},
+    {"PoseStampFarInTheFuture", set_pose_field(0, "99999.0"), 1, "poses_time_future"},
+    {"PoseStampFromThePast", set_pose_field(0, "0.3"), 1, "poses_time_past"},
+    {"PoseNan", set_pose_field(2, "nan"), 1, "poses_not_finite"},
+    {"PoseQuaternionNotUnit", set_pose_field(7, "1.5"), 1, "poses_quaternion"},
     {"PoseOneKilometreAway",
-     [](const std::string& s) {
-       edit_line(s + "/groundtruth.txt", kLine, [](const std::string& l) {
-         auto f = fields(l);
-         f[1] = std::to_string(std::stod(f[1]) + 1000.0);
-         return joined(f);
-       });
-     },
+     edit_pose_field(1, [](const std::string& x) { return std::to_string(std::stod(x) + 1000.0); }),
      1, "poses_jump"},
     {"CorruptPng",
      [](const std::string& s) { write_text(s + "/depth/000012.png", "\x89PNG\r\n\x1a\n garbage"); },

@@ -488,10 +488,10 @@ void comparison(int frame_count) {
     // Say why the column is empty, and how to count without hardware counters.
     std::printf(
         "M instr \"-\": no hardware instruction counter (perf_event_open: %s; a VM\n"
-        "without a PMU says so, perf_event_paranoid > 2 gives a permission error). Count them\n"
-        "with valgrind: --tool=callgrind --toggle-collect='zonemap::Mapper::integrate*'\n"
-        "build/release/zonemap-bench --projective 0.5 --frames 12, Ir / 12 (this includes\n"
-        "the first frame's clearing of its new zones: ~4 M a frame at 0.5 m)\n\n",
+        "without a PMU says so, perf_event_paranoid > 2 gives a permission error): tools/bench\n"
+        "then counts them with valgrind, --tool=callgrind --toggle-collect='zonemap::Mapper::\n"
+        "integrate(*' build/release/zonemap-bench --projective 0.5 --frames 12, Ir / 12 (this\n"
+        "includes the first frame's clearing of its new zones: ~4 M a frame at 0.5 m)\n\n",
         std::strerror(instruction_counter().error()));
   }
   const Frames f640 = make_frames(640, frame_count);
@@ -676,6 +676,8 @@ int main(int argc, char** argv) {
           "  --frames N           frames per case (default 12)\n"
           "  --full-extent        0.25 m over the whole 80 x 80 x 40 m environment too\n"
           "  --indoor             only the indoor regime (Kinect frames, generated room)\n"
+          "  --room               with --indoor --projective: the generated room even when the\n"
+          "                       Kinect frames are there\n"
           "  --workers            only the mapping step with 1, 2 and 4 worker threads\n"
           "  --projective CELL_M  only the projective path at one cell size (for perf/callgrind);\n"
           "                       with --indoor, on the Kinect frames (or the generated room)\n"
@@ -697,11 +699,13 @@ int main(int argc, char** argv) {
   bool full_extent = false;
   bool indoor_only = false;
   bool workers_only = false;
+  bool room = false;
   double only_cell = 0.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--full-extent") == 0) full_extent = true;
     if (std::strcmp(argv[i], "--indoor") == 0) indoor_only = true;
     if (std::strcmp(argv[i], "--workers") == 0) workers_only = true;
+    if (std::strcmp(argv[i], "--room") == 0) room = true;
     if (i + 1 >= argc) continue;
     if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(2, std::atoi(argv[i + 1]));
     if (std::strcmp(argv[i], "--projective") == 0) only_cell = std::atof(argv[i + 1]);
@@ -716,16 +720,18 @@ int main(int argc, char** argv) {
     // for perf/callgrind.
     Frames f;
     std::string why;
-    if (!load_kinect_frames(std::string(ZONEMAP_SHARED_DATA_DIR) + "/redkitchen-0000-0059", frames,
-                            &f, &why)) {
-      f = make_room_frames(frames);
-    }
+    const bool kinect =
+        !room && load_kinect_frames(std::string(ZONEMAP_SHARED_DATA_DIR) + "/redkitchen-0000-0059",
+                                    frames, &f, &why);
+    if (!kinect) f = make_room_frames(frames);
     const Timing t = time_zonemap(f, indoor_config(only_cell, MapConfig::Integration::kProjective));
     std::printf(
-        "indoor projective %.2f m: %.2f ms median, %.2f ms p99, %s M instructions median; per "
-        "frame %.0f cells evaluated (%.0f free by a bound), %.0f settled ray by ray (%.0f rays)\n",
-        only_cell, t.median_ms, t.p99_ms, minstr_text(t).c_str(), t.cells_per_frame,
-        t.block_free_per_frame, t.exact_cells_per_frame, t.exact_rays_per_frame);
+        "indoor projective %.2f m (%s): %.2f ms median, %.2f ms p99, %s M instructions median; "
+        "per frame %.0f cells evaluated (%.0f free by a bound), %.0f settled ray by ray (%.0f "
+        "rays)\n",
+        only_cell, kinect ? "kinect redkitchen" : "generated room", t.median_ms, t.p99_ms,
+        minstr_text(t).c_str(), t.cells_per_frame, t.block_free_per_frame, t.exact_cells_per_frame,
+        t.exact_rays_per_frame);
     return 0;
   }
   if (only_cell > 0.0) {

@@ -347,10 +347,15 @@ inline int middle_out(int i, int n) {
   return static_cast<int>((static_cast<unsigned>(n) - 1) >> 1) + ((i & 1) ? offset : -offset);
 }
 
-// Footprints are looked at in tiles of kTileW x kTileH pixels (one range query
-// each, rows of at most eight codes: one load); exact_value keeps the ranges of
-// up to kKeptTileRanges tiles between its passes (a 4 cm cell at 1 m: ~24 x 24 px).
-constexpr int kTileW = 8, kTileH = 4;
+// Footprints are looked at in tiles kTileW pixels wide (one range query each,
+// rows of at most eight codes: one load). The searches for one ray (exact_value's
+// first pass, any_ray_crosses) use a tile's range only to pass it over: tall
+// tiles, fewer queries. The exact maximum may take a tile's range as the bound of
+// its rays: short tiles, tighter bounds. exact_value keeps the search tiles'
+// ranges of up to kKeptTileRanges tiles for its second pass (as a first filter;
+// a 4 cm cell at 1 m: ~24 x 24 px).
+constexpr int kTileW = 8, kSearchTileH = 8, kBoundTileH = 4;
+static_assert(kSearchTileH % kBoundTileH == 0, "each bound tile lies in one search tile");
 constexpr int kKeptTileRanges = 64;
 
 // Calls visit(tx, ty, ex, ey) on the tiles of [x0, x1] x [y0, y1], rows and
@@ -361,12 +366,13 @@ constexpr int kKeptTileRanges = 64;
 template <class Visit>
 __attribute__((always_inline)) inline bool tiles_middle_out(int x0, int y0, int x1, int y1,
                                                             Visit&& visit) {
-  const int tile_rows = (y1 - y0) / kTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
+  const int tile_rows = (y1 - y0) / kSearchTileH + 1, tile_cols = (x1 - x0) / kTileW + 1;
   for (int row_i = 0; row_i < tile_rows; ++row_i) {
-    const int ty = y0 + kTileH * middle_out(row_i, tile_rows);
+    const int ty = y0 + kSearchTileH * middle_out(row_i, tile_rows);
     for (int col_i = 0; col_i < tile_cols; ++col_i) {
       const int tx = x0 + kTileW * middle_out(col_i, tile_cols);
-      if (visit(tx, ty, std::min(tx + kTileW - 1, x1), std::min(ty + kTileH - 1, y1))) return true;
+      if (visit(tx, ty, std::min(tx + kTileW - 1, x1), std::min(ty + kSearchTileH - 1, y1)))
+        return true;
     }
   }
   return false;
@@ -496,10 +502,10 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // The tiles' depth ranges, kept for the second pass when the footprint has few
   // enough tiles (the first pass visits them all when it does not stop early).
   const int tile_cols = (x1 - x0) / kTileW + 1;
-  const bool keep_ranges = tile_cols * ((y1 - y0) / kTileH + 1) <= kKeptTileRanges;
+  const bool keep_ranges = tile_cols * ((y1 - y0) / kSearchTileH + 1) <= kKeptTileRanges;
   std::array<std::uint32_t, kKeptTileRanges> kept_ranges;
   const auto tile_at = [&](int tx, int ty) {
-    return static_cast<std::size_t>((ty - y0) / kTileH * tile_cols + (tx - x0) / kTileW);
+    return static_cast<std::size_t>((ty - y0) / kSearchTileH * tile_cols + (tx - x0) / kTileW);
   };
   const bool reached = tiles_middle_out(
       x0, y0, x1, y1, [&](int tx, int ty, int ex, int ey) __attribute__((always_inline)) {
@@ -552,17 +558,18 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
       }
     };
     narrow();
-    for (int ty = y0; ty <= y1; ty += kTileH) {
+    for (int ty = y0; ty <= y1; ty += kBoundTileH) {
       for (int tx = x0; tx <= x1; tx += kTileW) {
-        const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kTileH - 1, y1);
-        std::uint16_t lo_code = 0, hi_code = 0;
+        const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kBoundTileH - 1, y1);
         if (keep_ranges) {
+          // The search tile holding this one: nothing to clip in it, nothing here.
           const std::uint32_t kept = kept_ranges[tile_at(tx, ty)];
-          lo_code = static_cast<std::uint16_t>(kept);
-          hi_code = static_cast<std::uint16_t>(kept >> 16);
-        } else {
-          depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+          const auto lo = static_cast<std::uint16_t>(kept);
+          const auto hi = static_cast<std::uint16_t>(kept >> 16);
+          if (lo > hi || hi < beat_lo || lo > beat_hi) continue;
         }
+        std::uint16_t lo_code = 0, hi_code = 0;
+        depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code || hi_code < beat_lo || lo_code > beat_hi) continue;
         float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
                                far_end(lo_code, hi_code, cell.a, cell.b));

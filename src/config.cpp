@@ -26,6 +26,8 @@ std::string validate(const MapConfig& c) {
     why << "sensor.pixel_step must be in [1, 64]";
   } else if (c.depth_filter_radius_px < 0 || c.depth_filter_radius_px > kMaxDepthFilterRadius) {
     why << "sensor.depth_filter_radius must be in [0, " << kMaxDepthFilterRadius << "] pixels";
+  } else if (!(c.see_through >= 0.0) || c.see_through > 1.0) {
+    why << "sensor.see_through must be in [0, 1] (0: off)";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
   } else if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {

@@ -70,7 +70,7 @@ LocalGrid::LocalGrid(const std::array<int, 3>& dims)
 
 std::size_t LocalGrid::reserved_bytes() const {
   const std::size_t row = static_cast<std::size_t>(dims_[0]);
-  return cell_count_ * sizeof(LocalCell) +
+  return cell_count_ * (sizeof(LocalCell) + (through_marks_ ? 1 : 0)) +
          kMaxFinishParts *
              ((row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
               row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t)) +
@@ -168,7 +168,12 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
     if (t_next[1] < t_next[axis]) axis = 1;
     if (t_next[2] < t_next[axis]) axis = 2;
     const float t_exit = std::min(std::max(t_next[axis], t), t1);
-    write_max(cell[0], cell[1], cell[2], to_local_cell(max_value_in_interval(ray, t, t_exit)));
+    const LocalCell value = to_local_cell(max_value_in_interval(ray, t, t_exit));
+    write_max(cell[0], cell[1], cell[2], value);
+    if (through_marks_) {
+      through_marks_[index(cell[0], cell[1], cell[2])] |=
+          (value == -kCellScale ? kSeenThrough : 0) | (value >= near_peak_ ? kNearPeak : 0);
+    }
     ++visited;
     if (t_exit >= t1) break;
     t = t_exit;
@@ -179,7 +184,32 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
   return visited;
 }
 
+void LocalGrid::enable_see_through(LocalCell near_peak) {
+  near_peak_ = near_peak;
+  through_marks_.reset(new std::uint8_t[cell_count_]());
+}
+
+void LocalGrid::free_cells_seen_through() {
+  if (touched_lo_[0] > touched_hi_[0] || touched_lo_[1] > touched_hi_[1] ||
+      touched_lo_[2] > touched_hi_[2]) {
+    return;
+  }
+  const int n = touched_hi_[0] - touched_lo_[0] + 1;
+  for (int z = touched_lo_[2]; z <= touched_hi_[2]; ++z) {
+    for (int y = touched_lo_[1]; y <= touched_hi_[1]; ++y) {
+      const std::size_t first = index(touched_lo_[0], y, z);
+      LocalCell* row = cells_.get() + first;
+      std::uint8_t* marks = through_marks_.get() + first;
+      for (int x = 0; x < n; ++x) {
+        if (marks[x] == kSeenThrough) row[x] = static_cast<LocalCell>(-kCellScale);
+        marks[x] = 0;
+      }
+    }
+  }
+}
+
 void LocalGrid::finish(int blur_radius, WorkSplit* split) {
+  if (through_marks_) free_cells_seen_through();
   const int radius = std::clamp(blur_radius, 0, kMaxBlurRadius);
   for (int a = 0; a < 3; ++a) {
     const std::size_t k = static_cast<std::size_t>(a);

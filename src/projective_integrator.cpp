@@ -120,6 +120,8 @@ ProjectiveIntegrator::ProjectiveIntegrator(const MapConfig& config, const Camera
       resolution_factor_(
           static_cast<float>(camera.match_sigma_px / (camera.baseline_m * camera.fx))),
       code_to_m_(static_cast<float>(1.0 / camera.depth_scale)),
+      see_through_(config.see_through > 0.0),
+      near_peak_fixed_(to_fixed(static_cast<float>(config.see_through))),
       max_real_code_(static_cast<std::uint16_t>(
           std::clamp(std::floor(config.d_max_m * camera.depth_scale), 1.0,
                      static_cast<double>(DepthRangeTable::kMaxDepthCode)))),
@@ -378,11 +380,12 @@ __attribute__((always_inline)) inline bool tiles_middle_out(int x0, int y0, int 
   return false;
 }
 
-// The largest m̂ of row v's rays u0 .. u0 + count - 1 (count <= 4): one load of
-// four codes when they lie inside the row, lanes past count missing.
-__attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* row, int width,
-                                                           int u0, int v, int count,
-                                                           const RayLanes& rays) {
+// m̂ of row v's rays u0 .. u0 + count - 1 (count <= 4) in the cell, a lane each
+// (kNoRay where a ray misses it): one load of four codes when they lie inside
+// the row, lanes past count missing.
+__attribute__((always_inline)) inline Lanes four_rays_values(const std::uint16_t* row, int width,
+                                                             int u0, int v, int count,
+                                                             const RayLanes& rays) {
   using U16x4 = std::uint16_t __attribute__((vector_size(8)));
   using Ints = std::int32_t __attribute__((vector_size(16)));
   Lanes code;
@@ -399,7 +402,25 @@ __attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* 
     for (int i = 0; i < count; ++i) code[i] = static_cast<float>(row[u0 + i]);
   }
   const Lanes u = splat(static_cast<float>(u0)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
-  return lanes_hmax(rays_best(u, splat(static_cast<float>(v)), code, rays));
+  return rays_best(u, splat(static_cast<float>(v)), code, rays);
+}
+
+// The largest of them.
+__attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* row, int width,
+                                                           int u0, int v, int count,
+                                                           const RayLanes& rays) {
+  return lanes_hmax(four_rays_values(row, width, u0, v, count, rays));
+}
+
+// Whether one of them crosses the cell wholly in its free part: m̂ at most -1 in
+// Q6 (what the reference's cell would hold for that ray alone).
+__attribute__((always_inline)) inline bool four_rays_any_free_across(const std::uint16_t* row,
+                                                                     int width, int u0, int v,
+                                                                     int count,
+                                                                     const RayLanes& rays) {
+  const Lanes values = four_rays_values(row, width, u0, v, count, rays);
+  const auto free = (values >= -1.0f) & (values <= (0.5f - kCellScale) / kCellScale);
+  return (free[0] | free[1] | free[2] | free[3]) != 0;
 }
 
 }  // namespace
@@ -484,9 +505,11 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // that does; when none does, the sign is lower and the second pass takes the
   // exact maximum, each tile bounded by its depth range (the cell's δ-support
   // bounds every ray's part in it).
-  // The depths whose rays can reach the sign sought: m̂ >= 0 (> 0) widened
-  // (narrowed) by the rounding margin.
-  const float margin = cell.enough_fixed > 0 ? 127.0f / 128.0f : 129.0f / 128.0f;
+  // The depths whose rays can reach the value sought, cell.enough_fixed in Q6
+  // (0 or 1: the sign; see_through's near peak): m̂ >= (enough - 1/2) / 64, the
+  // rounding's edge.
+  const float margin =
+      1.0f - (static_cast<float>(cell.enough_fixed) - 0.5f) / static_cast<float>(kCellScale);
   std::uint16_t sign_lo = 0, sign_hi = 0;
   codes_reaching(cell.a, cell.b, margin, margin, false, &sign_lo, &sign_hi);
   std::int64_t clipped = 0;
@@ -624,6 +647,48 @@ bool ProjectiveIntegrator::any_ray_crosses(const DepthRangeTable& depths, int x0
               four_rays_best(row, width, tx, v, std::min(count, 4), cell.rays) >= -1.0f)
             return true;
           if ((halves & 2) && four_rays_best(row, width, tx + 4, v, count - 4, cell.rays) >= -1.0f)
+            return true;
+        }
+        return false;
+      });
+}
+
+// The smallest depth code whose ray can be free up to δ = b: d - 2 Δd(d) >= b
+// (the reference rounds a ray's value to -1 at d - 1.99 Δd), widened by a code;
+// kFar when no real depth is (then only rays with no depth within d_max are).
+std::uint16_t ProjectiveIntegrator::first_code_free_beyond(float b) const {
+  const float k = resolution_factor_ * 1.99f;
+  const float disc = 1.0f - 4.0f * k * b;
+  if (disc < 0.0f) return DepthRangeTable::kFar;
+  const float root = (1.0f - std::sqrt(disc)) / (2.0f * k);
+  const float top = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  return static_cast<std::uint16_t>(std::clamp(std::floor(root / code_to_m_) - 1.0f, 0.0f, top));
+}
+
+bool ProjectiveIntegrator::any_ray_free_across(const DepthRangeTable& depths, int x0, int y0,
+                                               int x1, int y1, std::uint16_t hi_code,
+                                               const CellRays& cell) const {
+  // As any_ray_crosses, over the rows holding a depth that can be free across.
+  // (A ray leaves the cell at most at b, at least at a: its depth d - 2 Δd(d)
+  // lies past a.)
+  const std::uint16_t free_lo = first_code_free_beyond(cell.a);
+  if (hi_code < free_lo) return false;  // every depth of the footprint ends nearer
+  return tiles_middle_out(
+      x0, y0, x1, y1, [&](int tx, int ty, int ex, int ey) __attribute__((always_inline)) {
+        std::uint16_t lo_code = 0, tile_hi = 0;
+        depths.range(tx, ty, ex, ey, &lo_code, &tile_hi);
+        if (lo_code > tile_hi || tile_hi < free_lo) return false;
+        const int count = ex - tx + 1;
+        const int width = depths.width();
+        for (int v = ty; v <= ey; ++v) {
+          const int halves = row_halves_with_code_in(depths.codes(), width, tx, count, v, free_lo,
+                                                     DepthRangeTable::kFar);
+          const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * width;
+          if ((halves & 1) &&
+              four_rays_any_free_across(row, width, tx, v, std::min(count, 4), cell.rays))
+            return true;
+          if ((halves & 2) &&
+              four_rays_any_free_across(row, width, tx + 4, v, count - 4, cell.rays))
             return true;
         }
         return false;
@@ -1017,6 +1082,7 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
   // occupied or less free: the safe side), at the sign the reference gives.
   ++stats->cells_evaluated;
   float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
+  float probed = kNoRay;  // the probes' value, when U >= 0 asked for it
   const int upper_fixed = to_fixed(value);
   if (value > -1.0f && upper_fixed >= 0) {
     // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
@@ -1027,6 +1093,7 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
     set_cell_box();
     cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
     const float lower = probe_value();
+    probed = lower;
     if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
       ++stats->cells_exact;
       const float found = exact_value(depths, px0, py0, px1, py1, cell, lower, &stats->rays_exact);
@@ -1040,7 +1107,34 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
         (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
     if (!crossed(centre_reaches)) return;
   }
-  if (value >= -1.0f) grid.write_max(x, y, z, to_local_cell(value));
+  if (value < -1.0f) return;
+  if (see_through_ && to_fixed(value) > -kCellScale) {
+    // A ray crossed the cell wholly free and none came near its depth in it:
+    // free (MapConfig::see_through). value bounds every ray's m̂ from above; the
+    // probes (asked whenever value >= 0), when they reach the near peak, keep the
+    // cell without a search.
+    set_cell_box();
+    const bool may_reach = to_fixed(value) >= near_peak_fixed_;
+    const float lower = probed;
+    if (!(lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_) &&
+        any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell) &&
+        !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats))) {
+      value = -1.0f;
+    }
+  }
+  grid.write_max(x, y, z, to_local_cell(value));
+}
+
+// Whether some ray's m̂ in the cell reaches see_through's near peak (Q6), ray by
+// ray from `lower` (a value some ray reaches, below the near peak).
+bool ProjectiveIntegrator::reaches_near_peak(const DepthRangeTable& depths, int x0, int y0, int x1,
+                                             int y1, float lower, CellRays& cell,
+                                             ProjectiveStats* stats) const {
+  const int enough = cell.enough_fixed;
+  cell.enough_fixed = near_peak_fixed_;
+  const float found = exact_value(depths, x0, y0, x1, y1, cell, lower, &stats->rays_exact);
+  cell.enough_fixed = enough;
+  return found >= -1.0f && to_fixed(found) >= near_peak_fixed_;
 }
 
 }  // namespace zonemap

@@ -99,6 +99,8 @@ TEST(BadConfig, OutOfRangeValuesAreRefused) {
        "max_thickness_m"},
       {"sensor: {depth_filter_radius: 9}\n", "depth_filter_radius"},
       {"sensor: {depth_filter_radius: -1}\n", "depth_filter_radius"},
+      {"sensor: {see_through: 1.5}\n", "see_through"},
+      {"sensor: {see_through: -0.5}\n", "see_through"},
       {"features: {peak_fraction: 1.0}\n", "peak_fraction"},
       {"features: {peak_fraction: 0.5, peak_window_m: 100.0}\n", "peak_window_m"},
   };

@@ -174,6 +174,34 @@ TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
   }
 }
 
+TEST(Projective, AgreesWithReferenceSeeingThrough) {
+  // MapConfig::see_through: both paths free the cells a ray crossed wholly free
+  // where no ray came near its depth (hedge: the gaps between bushes; posts:
+  // the cells beside them), and keep what rays end in.
+  for (const char* name : {"hedge", "posts-through", "treeline-dense"}) {
+    sim::Scenario scenario;
+    std::string error;
+    ASSERT_TRUE(sim::make_scenario(name, {640, 1.0}, &scenario, &error));
+    MapConfig config;
+    ASSERT_TRUE(hal::load_map_config(testing::source_path(scenario.config), &config, &error))
+        << error;
+    config.see_through = 0.5;
+    const std::size_t pixels = 640 * 480;
+    std::vector<std::uint16_t> depth(pixels);
+    std::vector<std::uint8_t> left(pixels);
+    sim::Rng rng(23);
+    Agreement total, paper;
+    for (std::size_t k = 0; k < scenario.trajectory.size(); k += scenario.trajectory.size() / 3) {
+      const auto& pose = scenario.trajectory[k].world_T_camera;
+      sim::render(scenario.scene, scenario.camera, pose, sim::RenderOptions{}, rng, depth.data(),
+                  left.data());
+      total.add(
+          compare_frame(config, scenario.camera, {depth.data(), left.data(), 640, 480}, pose));
+    }
+    expect_agreement(total, std::string(name) + " seeing through");
+  }
+}
+
 TEST(Projective, NoValueWhereNoRayCrosses) {
   // Missing depth inside valid depth (stereo fails on thin or textureless
   // parts): the footprint box of a cell seen through a hole holds valid pixels

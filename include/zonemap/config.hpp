@@ -89,7 +89,14 @@ struct MapConfig {
   // reference) or visiting every frustum cell once (projective, fast).
   enum class Integration { kReference, kProjective };
   Integration integration = Integration::kProjective;  // the reference stays available by name
-  int blur_radius = 1;                                 // binomial kernel radius (0 = no blur)
+  // Past the paper (max-write keeps a ray's uncertainty band wherever it reaches):
+  // a cell that some ray crossed wholly in its free part, and in which no ray came
+  // within (1 - see_through) Δd of its measured depth (m̂ >= see_through), is free
+  // in that frame: the rays that passed through show the band there is the
+  // measurement's spread, not a thing. What stands in a cell is kept by the rays
+  // that end in it. 0: off (the paper's max-write).
+  double see_through = 0.0;
+  int blur_radius = 1;  // binomial kernel radius (0 = no blur)
   // Eq. (7) adds every view alike (kEqual, the paper's); kRangeWeighted scales a
   // view's occupied evidence by (δ_full / δ)², at least min_weight, beyond δ_full,
   // the depth at which eq. (1)'s Δd is full_weight_resolution_cells cells

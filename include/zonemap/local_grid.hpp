@@ -36,6 +36,12 @@ class LocalGrid {
     if (cell == kUntouched || value > cell) cell = value;
   }
 
+  // MapConfig::see_through for draw_ray: from now on each cell remembers whether
+  // a ray crossed it wholly free and whether one reached `near_peak` (Q6) in it,
+  // and finish() first frees the cells seen through and never near a peak.
+  // Reserves a byte per cell: call at start-up.
+  void enable_see_through(LocalCell near_peak);
+
   // Widens the region that finish() and fusion work on to hold [lo, hi] (grid
   // cells, clipped). Every writer says where it wrote; cells outside stay untouched.
   void extend_touched(int x0, int y0, int z0, int x1, int y1, int z1);
@@ -99,6 +105,7 @@ class LocalGrid {
   void blur_x_row(int y, int z, int radius, int part);
   // y (rows) or z (planes), vectorisable over x; the share's sheets only.
   void blur_across(int axis, int radius, RowShare share, int part);
+  void free_cells_seen_through();    // the touched region; clears the marks for the next frame
   LocalCell* saved_rows(int part) {  // a part's 2 * kMaxBlurRadius + 1 scratch rows
     return saved_.get() + static_cast<std::size_t>(part) * static_cast<std::size_t>(dims_[0]) *
                               (2 * kMaxBlurRadius + 1);
@@ -108,6 +115,10 @@ class LocalGrid {
   std::size_t cell_count_;
   CellIndex origin_;
   std::unique_ptr<LocalCell[]> cells_;
+  // see_through: per cell, kSeenThrough | kNearPeak marks of this frame's rays.
+  static constexpr std::uint8_t kSeenThrough = 1, kNearPeak = 2;
+  std::unique_ptr<std::uint8_t[]> through_marks_;
+  LocalCell near_peak_ = 0;
   // Scratch, one of each per part of the blur (kMaxFinishParts):
   std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
   std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)

@@ -87,6 +87,14 @@ class ProjectiveIntegrator {
   // (the reference draws nothing into a cell that none crosses).
   bool any_ray_crosses(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                        const CellRays& cell) const;
+  // MapConfig::see_through: whether the ray of some pixel of the rectangle (its
+  // largest code hi_code) crosses the cell wholly in its free part, and whether
+  // some ray reaches the near peak in it (`lower`: a value some ray reaches).
+  std::uint16_t first_code_free_beyond(float b) const;
+  bool any_ray_free_across(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
+                           std::uint16_t hi_code, const CellRays& cell) const;
+  bool reaches_near_peak(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float lower,
+                         CellRays& cell, ProjectiveStats* stats) const;
 
   // draw() in three parts: the frame's constants, the frustum's rows (in draw),
   // and one cell settled (free, the reference's sign, or left alone).
@@ -124,6 +132,8 @@ class ProjectiveIntegrator {
   float d_max_;
   float resolution_factor_;      // Δd = d² * factor (eq. 1)
   float code_to_m_;              // raw depth code -> metres
+  bool see_through_;             // MapConfig::see_through > 0
+  int near_peak_fixed_;          // MapConfig::see_through in Q6
   std::uint16_t max_real_code_;  // the largest real depth code (d_max)
   CameraModel camera_;
 };

@@ -175,9 +175,15 @@ TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
 }
 
 TEST(Projective, AgreesWithReferenceSeeingThrough) {
-  // MapConfig::see_through as shipped: both paths free the cells a ray crossed
-  // wholly free where no ray came near its depth (hedge: the gaps between bushes;
-  // posts: the cells beside them), and keep what rays end in.
+  // MapConfig::see_through as paper-flight2 ships it: both paths free the cells a
+  // ray crossed wholly free where no ray came near its depth (hedge: the gaps
+  // between bushes; posts: the cells beside them), and keep what rays end in.
+  MapConfig flight2;
+  std::string flight2_error;
+  ASSERT_TRUE(hal::load_map_config(testing::source_path("config/paper-flight2.yaml"), &flight2,
+                                   &flight2_error))
+      << flight2_error;
+  ASSERT_GT(flight2.see_through, 0.0) << "paper-flight2 ships without it";
   for (const char* name : {"hedge", "posts-through", "treeline-dense"}) {
     sim::Scenario scenario;
     std::string error;
@@ -185,7 +191,7 @@ TEST(Projective, AgreesWithReferenceSeeingThrough) {
     MapConfig config;
     ASSERT_TRUE(hal::load_map_config(testing::source_path(scenario.config), &config, &error))
         << error;
-    ASSERT_GT(config.see_through, 0.0) << scenario.config << " ships without it";
+    config.see_through = flight2.see_through;
     const std::size_t pixels = 640 * 480;
     std::vector<std::uint16_t> depth(pixels);
     std::vector<std::uint8_t> left(pixels);

@@ -149,28 +149,36 @@ TEST(DepthRangeTable, RangesMatchBruteForce) {
   }
 }
 
+// Both paths over four frames of a generated flight (640x480, every third of its
+// trajectory, noise from `seed`), with the config its scenario names, set to
+// `see_through`. A flight that cannot be made touches no cell (and fails).
+Agreement flight_agreement(const char* name, std::uint64_t seed, double see_through) {
+  sim::Scenario scenario;
+  std::string error;
+  MapConfig config;
+  if (!sim::make_scenario(name, {640, 1.0}, &scenario, &error) ||
+      !hal::load_map_config(testing::source_path(scenario.config), &config, &error)) {
+    ADD_FAILURE() << name << ": " << error;
+    return {};
+  }
+  config.see_through = see_through;
+  const std::size_t pixels = 640 * 480;
+  std::vector<std::uint16_t> depth(pixels);
+  std::vector<std::uint8_t> left(pixels);
+  sim::Rng rng(seed);
+  Agreement total;
+  for (std::size_t k = 0; k < scenario.trajectory.size(); k += scenario.trajectory.size() / 3) {
+    const auto& pose = scenario.trajectory[k].world_T_camera;
+    sim::render(scenario.scene, scenario.camera, pose, sim::RenderOptions{}, rng, depth.data(),
+                left.data());
+    total.add(compare_frame(config, scenario.camera, {depth.data(), left.data(), 640, 480}, pose));
+  }
+  return total;
+}
+
 TEST(Projective, AgreesWithReferenceOnGeneratedFrames) {
   for (const char* name : {"posts-through", "treeline", "bushes", "posts-around"}) {
-    sim::Scenario scenario;
-    std::string error;
-    ASSERT_TRUE(sim::make_scenario(name, {640, 1.0}, &scenario, &error));
-    MapConfig config;
-    ASSERT_TRUE(hal::load_map_config(testing::source_path(scenario.config), &config, &error))
-        << error;
-    const std::size_t pixels = 640 * 480;
-    std::vector<std::uint16_t> depth(pixels);
-    std::vector<std::uint8_t> left(pixels);
-    sim::Rng rng(21);
-    Agreement total;
-    for (std::size_t k = 0; k < scenario.trajectory.size(); k += scenario.trajectory.size() / 3) {
-      const auto& pose = scenario.trajectory[k].world_T_camera;
-      sim::render(scenario.scene, scenario.camera, pose, sim::RenderOptions{}, rng, depth.data(),
-                  left.data());
-      const Agreement a =
-          compare_frame(config, scenario.camera, {depth.data(), left.data(), 640, 480}, pose);
-      total.add(a);
-    }
-    expect_agreement(total, name);
+    expect_agreement(flight_agreement(name, 21, 0.0), name);
   }
 }
 
@@ -179,32 +187,14 @@ TEST(Projective, AgreesWithReferenceSeeingThrough) {
   // ray crossed wholly free where no ray came near its depth (hedge: the gaps
   // between bushes; posts: the cells beside them), and keep what rays end in.
   MapConfig flight2;
-  std::string flight2_error;
-  ASSERT_TRUE(hal::load_map_config(testing::source_path("config/paper-flight2.yaml"), &flight2,
-                                   &flight2_error))
-      << flight2_error;
+  std::string error;
+  ASSERT_TRUE(
+      hal::load_map_config(testing::source_path("config/paper-flight2.yaml"), &flight2, &error))
+      << error;
   ASSERT_GT(flight2.see_through, 0.0) << "paper-flight2 ships without it";
   for (const char* name : {"hedge", "posts-through", "treeline-dense"}) {
-    sim::Scenario scenario;
-    std::string error;
-    ASSERT_TRUE(sim::make_scenario(name, {640, 1.0}, &scenario, &error));
-    MapConfig config;
-    ASSERT_TRUE(hal::load_map_config(testing::source_path(scenario.config), &config, &error))
-        << error;
-    config.see_through = flight2.see_through;
-    const std::size_t pixels = 640 * 480;
-    std::vector<std::uint16_t> depth(pixels);
-    std::vector<std::uint8_t> left(pixels);
-    sim::Rng rng(23);
-    Agreement total, paper;
-    for (std::size_t k = 0; k < scenario.trajectory.size(); k += scenario.trajectory.size() / 3) {
-      const auto& pose = scenario.trajectory[k].world_T_camera;
-      sim::render(scenario.scene, scenario.camera, pose, sim::RenderOptions{}, rng, depth.data(),
-                  left.data());
-      total.add(
-          compare_frame(config, scenario.camera, {depth.data(), left.data(), 640, 480}, pose));
-    }
-    expect_agreement(total, std::string(name) + " seeing through");
+    expect_agreement(flight_agreement(name, 23, flight2.see_through),
+                     std::string(name) + " seeing through");
   }
 }
 

@@ -1,5 +1,6 @@
 // zonemap-eval's measures on hand-made boxes: a box holding two objects
-// separates neither, a moving object is judged by what it left behind.
+// separates neither, a neighbour's box is not an object's own, a moving object is
+// judged by what it left behind.
 #include <gtest/gtest.h>
 
 #include "tools/eval/evaluate.hpp"
@@ -28,6 +29,39 @@ TEST(Evaluate, OneBoxOverTwoObjectsSeparatesNeither) {
   EXPECT_DOUBLE_EQ(e.separated, 0.0);
   EXPECT_DOUBLE_EQ(e.excess_max_m, 4.0);
   EXPECT_LT(e.purity, 0.8);
+}
+
+TEST(Evaluate, ANeighboursBoxEndingInTheGapIsTheNeighbours) {
+  // Two trees 1.3 m apart, each in a box of its own with 0.49 m between the boxes: the
+  // right one's box is within the 0.5 m tolerance of the left tree, and is not its box.
+  const std::vector<TruthObject> objects = {box_object("left", {0, 0, 0}, {4, 4, 10}),
+                                            box_object("right", {5.3, 0, 0}, {9.3, 4, 10})};
+  const std::vector<RunBox> boxes = {obstacle(1, {-0.5, 0, 0}, {4.0, 4, 10}),
+                                     obstacle(2, {4.49, 0, 0}, {9.5, 4, 10})};
+  const Evaluation e = evaluate(objects, boxes, 0.5);
+  EXPECT_DOUBLE_EQ(e.separated, 1.0);
+  EXPECT_EQ(e.objects[0].boxes, 1);
+  EXPECT_NEAR(e.excess_max_m, 0.81, 1e-9) << "the right box reaches 0.81 m past its tree";
+}
+
+TEST(Evaluate, ABoxJustShortOfAnObjectStillFindsIt) {
+  const std::vector<TruthObject> objects = {box_object("post", {0, 0, 0}, {1, 1, 5})};
+  const Evaluation e = evaluate(objects, {obstacle(1, {1.3, 0, 0}, {2, 1, 5})}, 0.5);
+  EXPECT_DOUBLE_EQ(e.recall, 1.0);
+  EXPECT_EQ(e.objects[0].boxes, 1);
+  EXPECT_DOUBLE_EQ(e.excess_max_m, 1.0);
+}
+
+TEST(Evaluate, AJoinedBoxReachingIntoTheGapStillJoins) {
+  // The left tree has a box of its own, but another box overlapping it by a cell also
+  // holds the right tree 1.3 m away: not separated.
+  const std::vector<TruthObject> objects = {box_object("left", {0, 0, 0}, {4, 4, 10}),
+                                            box_object("right", {5.3, 0, 0}, {9.3, 4, 10})};
+  const std::vector<RunBox> boxes = {obstacle(1, {-0.5, 0, 0}, {3.5, 4, 10}),
+                                     obstacle(2, {3.5, 0, 0}, {9.5, 4, 10})};
+  const Evaluation e = evaluate(objects, boxes, 0.5);
+  EXPECT_DOUBLE_EQ(e.separated, 0.0);
+  EXPECT_NEAR(e.excess_max_m, 5.5, 1e-9);
 }
 
 TEST(Evaluate, AMovingObjectCountsWhereItEndsAndItsOldPlaceIsAFalseBox) {

@@ -136,6 +136,21 @@ std::pair<double, double> pure_area(const RunBox& b, const std::vector<TruthObje
   return {area * near / (nx * ny), area};
 }
 
+// The obstacle boxes that are the object's: those overlapping its extent, or when none
+// does, those within the tolerance (a box that falls just short still finds it). A
+// neighbour's box ending in the gap within the tolerance is the neighbour's, not this
+// object's: counting it would call two boxes with a gap between them one joined box.
+std::vector<const RunBox*> boxes_of(const TruthObject& o, const std::vector<RunBox>& boxes,
+                                    double tolerance_m) {
+  std::vector<const RunBox*> overlapping, near;
+  for (const RunBox& b : boxes) {
+    if (b.kind != "obstacle") continue;
+    if (overlaps(o.min, o.max, b.min, b.max, 0.0)) overlapping.push_back(&b);
+    if (overlaps(o.min, o.max, b.min, b.max, tolerance_m)) near.push_back(&b);
+  }
+  return overlapping.empty() ? near : overlapping;
+}
+
 }  // namespace
 
 Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<RunBox>& boxes,
@@ -152,8 +167,8 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
     Eigen::Vector3d union_min = Eigen::Vector3d::Constant(INFINITY);
     Eigen::Vector3d union_max = Eigen::Vector3d::Constant(-INFINITY);
     bool swallows_another = false;
-    for (const RunBox& b : boxes) {
-      if (b.kind != "obstacle" || !overlaps(o.min, o.max, b.min, b.max, tolerance_m)) continue;
+    for (const RunBox* box : boxes_of(o, boxes, tolerance_m)) {
+      const RunBox& b = *box;
       ++r.boxes;
       union_min = union_min.cwiseMin(b.min);
       union_max = union_max.cwiseMax(b.max);

@@ -48,7 +48,7 @@ struct ObjectResult {
   unsigned box_id = 0;
   double centre_error_xy_m = 0.0;
   Eigen::Vector2d box_centre = Eigen::Vector2d::Zero();
-  int boxes = 0;            // obstacle boxes overlapping it
+  int boxes = 0;            // its obstacle boxes: overlapping it, else within the tolerance
   bool separated = false;   // none of them overlaps another object >= kSeparationM away
   double excess_m = 0.0;    // how far its boxes' union reaches past its x-y extent (largest side)
   double z_coverage = 0.0;  // share of its height its boxes cover
@@ -57,7 +57,7 @@ struct ObjectResult {
 struct Evaluation {
   std::vector<ObjectResult> objects;
   int obstacle_boxes = 0;
-  int boxes_touching_no_object = 0;  // false boxes
+  int boxes_touching_no_object = 0;         // false boxes
   int objects_seen = 0, objects_found = 0;  // standing objects (moving ones apart)
   int moving_objects = 0;
   double recall = 0.0;  // found / seen

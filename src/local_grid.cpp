@@ -14,21 +14,32 @@ int symmetric_shift(int value, int shift) {
   return value >= 0 ? (value + half) >> shift : -((-value + half) >> shift);
 }
 
+// A cell unknown (0) before a blur pass takes occupancy from its neighbours but
+// not their free space: blurring the free space beside a surface into the cells
+// behind it, which no ray saw, would call the inside of a trunk free.
+inline int blurred(int centre, int value) {
+  return centre == 0 && value < 0 ? 0 : value;
+}
+
 // out = (a + 2 b + c) / 4, rounded symmetrically, for int8 rows (out may be none
-// of the inputs). Sixteen cells at a time in 16-bit lanes (|a + 2 b + c| <= 256
-// for cell values in [-64, 64]); the rest one by one.
+// of the inputs), kept from going below 0 where b is 0 (blurred()). Sixteen cells
+// at a time in 16-bit lanes (|a + 2 b + c| <= 256 for cell values in [-64, 64]);
+// the rest one by one.
 void blur_row3(const LocalCell* __restrict a, const LocalCell* __restrict b,
                const LocalCell* __restrict c, LocalCell* __restrict out, int n) {
   using I8x16 = std::int8_t __attribute__((vector_size(16)));
   using I8x8 = std::int8_t __attribute__((vector_size(8)));
   using I16x8 = std::int16_t __attribute__((vector_size(16)));
   const auto blur8 = [](I8x8 va, I8x8 vb, I8x8 vc) {
-    const I16x8 sum = __builtin_convertvector(va, I16x8) + 2 * __builtin_convertvector(vb, I16x8) +
-                      __builtin_convertvector(vc, I16x8);
+    const I16x8 centre = __builtin_convertvector(vb, I16x8);
+    const I16x8 sum =
+        __builtin_convertvector(va, I16x8) + 2 * centre + __builtin_convertvector(vc, I16x8);
     const auto negative = sum < 0;
     const I16x8 magnitude = negative ? -sum : sum;
     const I16x8 shifted = (magnitude + 2) >> 2;
-    return __builtin_convertvector(negative ? -shifted : shifted, I8x8);
+    const I16x8 value = negative ? -shifted : shifted;
+    const I16x8 kept = (centre == 0 && value < 0) ? I16x8{} : value;  // blurred()
+    return __builtin_convertvector(kept, I8x8);
   };
   int x = 0;
   for (; x + 16 <= n; x += 16) {
@@ -48,7 +59,7 @@ void blur_row3(const LocalCell* __restrict a, const LocalCell* __restrict b,
   }
   for (; x < n; ++x) {
     const int sum = a[x] + 2 * b[x] + c[x];
-    out[x] = static_cast<LocalCell>(symmetric_shift(sum, 2));
+    out[x] = static_cast<LocalCell>(blurred(b[x], symmetric_shift(sum, 2)));
   }
 }
 
@@ -296,7 +307,7 @@ void LocalGrid::blur_x_row(int y, int z, int radius, int part) {
     const std::int16_t* w = line + i;
     const int sum =
         radius == 1 ? w[0] + 2 * w[1] + w[2] : w[0] + 4 * w[1] + 6 * w[2] + 4 * w[3] + w[4];
-    row[i] = static_cast<LocalCell>(symmetric_shift(sum, 2 * radius));
+    row[i] = static_cast<LocalCell>(blurred(w[radius], symmetric_shift(sum, 2 * radius)));
   }
 }
 
@@ -387,9 +398,10 @@ void LocalGrid::blur_across(int axis, int radius, RowShare share, int part) {
         for (int x = 0; x < n; ++x) sum[x] = static_cast<std::int16_t>(sum[x] + w * src[x]);
       }
       LocalCell* dst = row_at(c);
+      const LocalCell* original = saved_row(c);
       std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
       for (int x = 0; x < n; ++x)
-        dst[x] = static_cast<LocalCell>(symmetric_shift(sum[x], 2 * radius));
+        dst[x] = static_cast<LocalCell>(blurred(original[x], symmetric_shift(sum[x], 2 * radius)));
       span_at(c) = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
     }
   }

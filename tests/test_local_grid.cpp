@@ -145,7 +145,8 @@ TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
 }
 
 // The blur written the plain way: three passes of the binomial kernel, each
-// rounded symmetrically, the cells outside the active region unknown (0).
+// rounded symmetrically, the cells outside the active region unknown (0), a
+// cell at 0 before a pass not made free by it.
 std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
                                 const std::array<int, 3>& lo, const std::array<int, 3>& hi,
                                 int radius) {
@@ -165,8 +166,10 @@ std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
             sum += weights[radius][k + radius] * at(v, x + dx, y + dy, z + dz);
           }
           const int shift = 2 * radius, half = 1 << (shift - 1);
+          const int value = sum >= 0 ? (sum + half) >> shift : -((-sum + half) >> shift);
+          // A cell unknown before the pass takes no free space from its neighbours.
           out[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] =
-              sum >= 0 ? (sum + half) >> shift : -((-sum + half) >> shift);
+              at(v, x, y, z) == 0 && value < 0 ? 0 : value;
         }
     v = out;
   }
@@ -245,6 +248,23 @@ TEST(LocalGrid, BlurEqualsThePlainThreePassBinomial) {
       EXPECT_GT(zero_rows, 0);  // the skipping was exercised
     }
   }
+}
+
+TEST(LocalGrid, TheBlurGivesUnknownCellsOccupancyButNoFreeSpace) {
+  // One x row: free cells, then cells no ray reached (the inside of a trunk beside
+  // the free space around it), then an occupied cell and unknown beyond it.
+  LocalGrid grid({12, 3, 3});
+  grid.reset(CellIndex{});
+  grid.extend_touched(0, 0, 0, 11, 2, 2);
+  for (int x = 0; x < 4; ++x) grid.write_max(x, 1, 1, static_cast<LocalCell>(-kCellScale));
+  grid.write_max(8, 1, 1, static_cast<LocalCell>(kCellScale));
+  grid.finish(1);
+  EXPECT_LT(grid.at(3, 1, 1), 0) << "seen free stays free";
+  EXPECT_EQ(grid.at(4, 1, 1), 0) << "unknown beside free space stays unknown";
+  EXPECT_EQ(grid.at(3, 0, 1), 0) << "so does the row beside it";
+  EXPECT_GT(grid.at(8, 1, 1), 0);
+  EXPECT_GT(grid.at(9, 1, 1), 0) << "occupancy still spreads into unknown cells";
+  EXPECT_GT(grid.at(8, 0, 1), 0);
 }
 
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {

@@ -146,7 +146,7 @@ TEST(LocalGrid, BlurKeepsTheSignStructureAndIsSymmetric) {
 
 // The blur written the plain way: three passes of the binomial kernel, each
 // rounded symmetrically, the cells outside the active region unknown (0), a
-// cell at 0 before a pass not made free by it.
+// cell not free before a pass not made free by it.
 std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
                                 const std::array<int, 3>& lo, const std::array<int, 3>& hi,
                                 int radius) {
@@ -167,9 +167,9 @@ std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
           }
           const int shift = 2 * radius, half = 1 << (shift - 1);
           const int value = sum >= 0 ? (sum + half) >> shift : -((-sum + half) >> shift);
-          // A cell unknown before the pass takes no free space from its neighbours.
+          // A pass makes no cell free that was not free before it.
           out[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] =
-              at(v, x, y, z) == 0 && value < 0 ? 0 : value;
+              at(v, x, y, z) >= 0 && value < 0 ? 0 : value;
         }
     v = out;
   }
@@ -250,7 +250,7 @@ TEST(LocalGrid, BlurEqualsThePlainThreePassBinomial) {
   }
 }
 
-TEST(LocalGrid, TheBlurGivesUnknownCellsOccupancyButNoFreeSpace) {
+TEST(LocalGrid, TheBlurMakesNoCellFreeThatWasNotFree) {
   // One x row: free cells, then cells no ray reached (the inside of a trunk beside
   // the free space around it), then an occupied cell and unknown beyond it.
   LocalGrid grid({12, 3, 3});
@@ -265,6 +265,19 @@ TEST(LocalGrid, TheBlurGivesUnknownCellsOccupancyButNoFreeSpace) {
   EXPECT_GT(grid.at(8, 1, 1), 0);
   EXPECT_GT(grid.at(9, 1, 1), 0) << "occupancy still spreads into unknown cells";
   EXPECT_GT(grid.at(8, 0, 1), 0);
+
+  // A weakly occupied cell in free space: the blur takes it down to unknown at most.
+  LocalGrid lone({5, 5, 5});
+  lone.reset(CellIndex{});
+  lone.extend_touched(0, 0, 0, 4, 4, 4);
+  for (int z = 0; z < 5; ++z)
+    for (int y = 0; y < 5; ++y)
+      for (int x = 0; x < 5; ++x)
+        lone.write_max(x, y, z,
+                       static_cast<LocalCell>(x == 2 && y == 2 && z == 2 ? 8 : -kCellScale));
+  lone.finish(1);
+  EXPECT_EQ(lone.at(2, 2, 2), 0) << "not made free by its neighbours";
+  EXPECT_LT(lone.at(0, 0, 0), 0);
 }
 
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {

@@ -49,10 +49,10 @@ class LocalGrid {
   // Turns untouched cells of the touched region (grown by the blur radius) into 0
   // (unknown) and applies the separable binomial blur of the given radius (1:
   // [1 2 1]/4, 2: [1 4 6 4 1]/16) along x, y and z there. Values outside count as
-  // unknown (0). Rounds half away from zero, so the blur is symmetric in sign. A
-  // cell at 0 before a pass (unknown: no ray saw it) may take occupancy from its
-  // neighbours in that pass but not their free space: free space blurred into the
-  // cells behind a surface would call the inside of a trunk free.
+  // unknown (0). Rounds half away from zero. A pass makes no cell free that was
+  // not free before it: an unknown (no ray saw it) or occupied cell takes its
+  // neighbours' occupancy but their free space at most down to unknown (free space
+  // blurred into the cells behind a surface would call the inside of a trunk free).
   // With a split, its parts share each of the blur's steps (rows, planes of
   // their own): the grid is the same for any split.
   void finish(int blur_radius, WorkSplit* split = nullptr);

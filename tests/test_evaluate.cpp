@@ -21,6 +21,12 @@ RunBox obstacle(unsigned id, Eigen::Vector3d min, Eigen::Vector3d max) {
   return RunBox{id, "obstacle", min, max, 10};
 }
 
+// Two trees (as boxes) 4 m wide with a 1.3 m gap between them along x.
+std::vector<TruthObject> two_trees_1_3_m_apart() {
+  return {box_object("left", {0, 0, 0}, {4, 4, 10}),
+          box_object("right", {5.3, 0, 0}, {9.3, 4, 10})};
+}
+
 TEST(Evaluate, OneBoxOverTwoObjectsSeparatesNeither) {
   const std::vector<TruthObject> objects = {box_object("a", {0, 0, 0}, {1, 1, 2}),
                                             box_object("b", {4, 0, 0}, {5, 1, 2})};
@@ -34,8 +40,7 @@ TEST(Evaluate, OneBoxOverTwoObjectsSeparatesNeither) {
 TEST(Evaluate, ANeighboursBoxEndingInTheGapIsTheNeighbours) {
   // Two trees 1.3 m apart, each in a box of its own with 0.49 m between the boxes: the
   // right one's box is within the 0.5 m tolerance of the left tree, and is not its box.
-  const std::vector<TruthObject> objects = {box_object("left", {0, 0, 0}, {4, 4, 10}),
-                                            box_object("right", {5.3, 0, 0}, {9.3, 4, 10})};
+  const std::vector<TruthObject> objects = two_trees_1_3_m_apart();
   const std::vector<RunBox> boxes = {obstacle(1, {-0.5, 0, 0}, {4.0, 4, 10}),
                                      obstacle(2, {4.49, 0, 0}, {9.5, 4, 10})};
   const Evaluation e = evaluate(objects, boxes, 0.5);
@@ -55,8 +60,7 @@ TEST(Evaluate, ABoxJustShortOfAnObjectStillFindsIt) {
 TEST(Evaluate, AJoinedBoxReachingIntoTheGapStillJoins) {
   // The left tree has a box of its own, but another box overlapping it by a cell also
   // holds the right tree 1.3 m away: not separated.
-  const std::vector<TruthObject> objects = {box_object("left", {0, 0, 0}, {4, 4, 10}),
-                                            box_object("right", {5.3, 0, 0}, {9.3, 4, 10})};
+  const std::vector<TruthObject> objects = two_trees_1_3_m_apart();
   const std::vector<RunBox> boxes = {obstacle(1, {-0.5, 0, 0}, {3.5, 4, 10}),
                                      obstacle(2, {3.5, 0, 0}, {9.5, 4, 10})};
   const Evaluation e = evaluate(objects, boxes, 0.5);

@@ -36,7 +36,13 @@ struct RayLanes {
   Lanes w00[3], du[3], dv[3];
   Lanes lo[3], hi[3];
   Lanes d_min, d_max, code_to_m, resolution_factor;
+  Lanes min_through;  // see_through: the least δ a ray crosses a cell for (kMinSeenThrough)
 };
+
+// see_through's ties (four_rays_any_free_across): a sixteenth of a Q6 step, and
+// a thousandth of a cell.
+constexpr float kFreeAcrossMargin = 1.0f / (16.0f * kCellScale);
+constexpr float kMinSeenThrough = 1e-3f;
 
 // The camera's frustum (image borders, d_min, d_max) as six world-frame
 // half-spaces n . p >= c, widened so that a cube of side `side` whose centre is
@@ -275,11 +281,13 @@ CodeSides code_sides(const std::uint16_t* codes, int width, int x0, int y0, int 
   return sides;
 }
 
-// The largest m̂ over four pixel rays' parts inside the box [lo, hi] (camera
-// centre at the origin; the ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)),
-// kNoRay when none crosses it. Same rule as the reference (each ray clipped to
-// the box, then value_for_code over the part inside), written without branches.
-inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayLanes& r) {
+// Four pixel rays clipped to the box [lo, hi] (camera centre at the origin; the
+// ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)): the δ at which each enters
+// and leaves it (from d_min on), written without branches.
+struct Clipped {
+  Lanes enter, leave;
+};
+inline Clipped clip_to_cell(Lanes u, Lanes v, const RayLanes& r) {
   Lanes enter = r.d_min, leave = splat(1e30f);
   for (int k = 0; k < 3; ++k) {
     const Lanes w = r.w00[k] + u * r.du[k] + v * r.dv[k];
@@ -290,6 +298,14 @@ inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayLanes& r) {
     enter = lanes_max(enter, lanes_min(ta, tb));
     leave = lanes_min(leave, lanes_max(ta, tb));
   }
+  return {enter, leave};
+}
+
+// The largest m̂ over each clipped ray's part inside the box, kNoRay where a ray
+// does not cross it. Same rule as the reference (value_for_code over the part
+// inside).
+inline Lanes values_in_cell(Lanes code, Clipped clipped, const RayLanes& r) {
+  const Lanes enter = clipped.enter, leave = clipped.leave;
   const auto far = code == static_cast<float>(DepthRangeTable::kFar);
   const auto missing = code == static_cast<float>(DepthRangeTable::kMissing);
   const Lanes d = code * r.code_to_m;
@@ -304,6 +320,10 @@ inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayLanes& r) {
   value = far ? splat(-1.0f) : value;
   const auto crosses = (missing == 0) & (enter < leave) & (enter <= end);
   return crosses ? value : splat(kNoRay);
+}
+
+inline Lanes rays_best(Lanes u, Lanes v, Lanes code, const RayLanes& r) {
+  return values_in_cell(code, clip_to_cell(u, v, r), r);
 }
 
 inline float lanes_hmax(Lanes v) {
@@ -380,12 +400,10 @@ __attribute__((always_inline)) inline bool tiles_middle_out(int x0, int y0, int 
   return false;
 }
 
-// m̂ of row v's rays u0 .. u0 + count - 1 (count <= 4) in the cell, a lane each
-// (kNoRay where a ray misses it): one load of four codes when they lie inside
-// the row, lanes past count missing.
-__attribute__((always_inline)) inline Lanes four_rays_values(const std::uint16_t* row, int width,
-                                                             int u0, int v, int count,
-                                                             const RayLanes& rays) {
+// The codes of row pixels u0 .. u0 + count - 1 (count <= 4), a lane each: one
+// load of four when they lie inside the row, lanes past count missing.
+__attribute__((always_inline)) inline Lanes four_codes(const std::uint16_t* row, int width, int u0,
+                                                       int count) {
   using U16x4 = std::uint16_t __attribute__((vector_size(8)));
   using Ints = std::int32_t __attribute__((vector_size(16)));
   Lanes code;
@@ -401,8 +419,20 @@ __attribute__((always_inline)) inline Lanes four_rays_values(const std::uint16_t
     code = splat(static_cast<float>(DepthRangeTable::kMissing));
     for (int i = 0; i < count; ++i) code[i] = static_cast<float>(row[u0 + i]);
   }
-  const Lanes u = splat(static_cast<float>(u0)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
-  return rays_best(u, splat(static_cast<float>(v)), code, rays);
+  return code;
+}
+
+inline Lanes four_columns(int u0) {
+  return splat(static_cast<float>(u0)) + Lanes{0.0f, 1.0f, 2.0f, 3.0f};
+}
+
+// m̂ of row v's rays u0 .. u0 + count - 1 (count <= 4) in the cell, a lane each
+// (kNoRay where a ray misses it).
+__attribute__((always_inline)) inline Lanes four_rays_values(const std::uint16_t* row, int width,
+                                                             int u0, int v, int count,
+                                                             const RayLanes& rays) {
+  return rays_best(four_columns(u0), splat(static_cast<float>(v)),
+                   four_codes(row, width, u0, count), rays);
 }
 
 // The largest of them.
@@ -414,12 +444,19 @@ __attribute__((always_inline)) inline float four_rays_best(const std::uint16_t* 
 
 // Whether one of them crosses the cell wholly in its free part: m̂ at most -1 in
 // Q6 (what the reference's cell would hold for that ray alone).
+// A tie goes to max-write (the safe side, where the two paths' float rounding
+// may differ in the last bit): a ray whose m̂ lies within kFreeAcrossMargin of
+// the Q6 step's edge, or that crosses less than kMinSeenThrough cells (an edge
+// or a corner grazed), does not count.
 __attribute__((always_inline)) inline bool four_rays_any_free_across(const std::uint16_t* row,
                                                                      int width, int u0, int v,
                                                                      int count,
                                                                      const RayLanes& rays) {
-  const Lanes values = four_rays_values(row, width, u0, v, count, rays);
-  const auto free = (values >= -1.0f) & (values <= (0.5f - kCellScale) / kCellScale);
+  const Clipped clipped = clip_to_cell(four_columns(u0), splat(static_cast<float>(v)), rays);
+  const Lanes values = values_in_cell(four_codes(row, width, u0, count), clipped, rays);
+  const auto free = (values >= -1.0f) &
+                    (values <= (0.5f - kCellScale) / kCellScale - kFreeAcrossMargin) &
+                    (clipped.leave - clipped.enter >= rays.min_through);
   return (free[0] | free[1] | free[2] | free[3]) != 0;
 }
 
@@ -879,6 +916,7 @@ ProjectiveIntegrator::prepare_frame(const Eigen::Isometry3d& world_T_camera,
   f.cell.rays.d_max = splat(d_max_);
   f.cell.rays.code_to_m = splat(code_to_m_);
   f.cell.rays.resolution_factor = splat(resolution_factor_);
+  f.cell.rays.min_through = splat(kMinSeenThrough * static_cast<float>(s));
   f.cell_size = static_cast<float>(s);
   // The ray of the pixel nearest to a cell's projected centre passes within
   // 0.75 pixel of the centre: it crosses the cell while the cell spans > 1.5 px.

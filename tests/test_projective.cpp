@@ -1,7 +1,10 @@
 // The fast (projective) integration path against the reference ray traversal:
 // same sign on >= 99.9% of the cells either touches (the issue asks 99%), no
 // occupied reference cell missed, no free value where no ray crosses, values
-// never below the reference's, on generated and real frames.
+// never below the reference's, on generated and real frames. Both paths round
+// m̂ to Q6 in float: where m̂ lies on a step's edge (±1/128) they may round
+// apart by one step, which is all these checks allow (a reference +1/64 that
+// the fast path has at 0, a reference 0 that it has at -1/64).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -22,6 +25,8 @@ struct Agreement {
   std::int64_t same_sign = 0;
   std::int64_t occupied_reference = 0;
   std::int64_t occupied_missed = 0;  // occupied in the reference, not in the fast grid
+                                     // (beyond rounding apart by one step)
+  std::int64_t free_where_none = 0;  // free in the fast grid beyond that step, 0 in the reference
   std::int64_t below_reference = 0;  // touched by both, fast value below the reference's
   int largest_shortfall = 0;         // by how much at most (1/64 units)
   std::int64_t kinds[3][3] = {};     // [reference sign + 1][fast sign + 1]
@@ -31,6 +36,7 @@ struct Agreement {
     same_sign += a.same_sign;
     occupied_reference += a.occupied_reference;
     occupied_missed += a.occupied_missed;
+    free_where_none += a.free_where_none;
     below_reference += a.below_reference;
     largest_shortfall = std::max(largest_shortfall, a.largest_shortfall);
     for (int r = 0; r < 3; ++r)
@@ -64,8 +70,9 @@ Agreement compare_frame(const MapConfig& base_config, const CameraModel& camera,
     ++a.kinds[(rv > 0) - (rv < 0) + 1][(fv > 0) - (fv < 0) + 1];
     if (rv > 0) {
       ++a.occupied_reference;
-      if (fv <= 0) ++a.occupied_missed;
+      if (fv <= 0 && rv - fv > 1) ++a.occupied_missed;
     }
+    if (rv == 0 && fv < -1) ++a.free_where_none;
     // A reference 0 is a ray whose end only touches the cell (m̂ = 0 at d + Δd): a
     // convention of the traversal, left out here (it is in the sign figures above).
     if (r.data()[i] != kUntouched && f.data()[i] != kUntouched && fv < rv && rv != 0) {
@@ -79,11 +86,12 @@ Agreement compare_frame(const MapConfig& base_config, const CameraModel& camera,
 void expect_agreement(const Agreement& a, const std::string& what, double min_same = 0.999) {
   const double same = static_cast<double>(a.same_sign) / static_cast<double>(a.touched);
   std::printf(
-      "[ %s ] touched %lld, same sign %.3f%%, occupied (reference) %lld, missed %lld, below the "
-      "reference %lld (by up to %d/64)\n",
+      "[ %s ] touched %lld, same sign %.3f%%, occupied (reference) %lld, missed %lld, free where "
+      "the reference has 0 %lld, below the reference %lld (by up to %d/64)\n",
       what.c_str(), static_cast<long long>(a.touched), 100.0 * same,
       static_cast<long long>(a.occupied_reference), static_cast<long long>(a.occupied_missed),
-      static_cast<long long>(a.below_reference), a.largest_shortfall);
+      static_cast<long long>(a.free_where_none), static_cast<long long>(a.below_reference),
+      a.largest_shortfall);
   std::printf(
       "  reference -,0,+ rows x fast -,0,+ columns: %lld %lld %lld | %lld %lld %lld | %lld %lld "
       "%lld\n",
@@ -95,7 +103,7 @@ void expect_agreement(const Agreement& a, const std::string& what, double min_sa
   EXPECT_EQ(a.occupied_missed, 0) << what;
   // Free where the reference has 0 (no ray crosses, or only a ray's end): a
   // free value there would erase what earlier frames saw.
-  EXPECT_EQ(a.kinds[1][0], 0) << what;
+  EXPECT_EQ(a.free_where_none, 0) << what;
   // The value is the upper bound wherever the sign allows: never below the
   // reference's, but for float rounding at the last 1/64 step.
   EXPECT_LE(a.largest_shortfall, 1) << what;
@@ -195,6 +203,24 @@ TEST(Projective, AgreesWithReferenceSeeingThrough) {
   for (const char* name : {"hedge", "posts-through", "treeline-dense"}) {
     expect_agreement(flight_agreement(name, 23, flight2.see_through),
                      std::string(name) + " seeing through");
+  }
+}
+
+TEST(Projective, AgreesWithReferenceSeeingThroughOnMoreFlights) {
+  // As above on more noise: where m̂ lies on a Q6 step's edge the paths may
+  // round apart (see the top), and a ray that grazes a cell's edge (a thousandth
+  // of a cell) or ends exactly where its free part does (m̂ on -1's step edge)
+  // must not let the fast path see through a cell the reference keeps.
+  MapConfig flight2;
+  std::string error;
+  ASSERT_TRUE(
+      hal::load_map_config(testing::source_path("config/paper-flight2.yaml"), &flight2, &error))
+      << error;
+  for (const char* name : {"hedge", "treeline-dense", "treeline"}) {
+    for (std::uint64_t seed = 24; seed <= 31; ++seed) {
+      expect_agreement(flight_agreement(name, seed, flight2.see_through),
+                       std::string(name) + " seeing through, noise " + std::to_string(seed));
+    }
   }
 }
 

@@ -79,6 +79,7 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       component_(new std::uint32_t[zone_cell_count(config)]()),
       footprint_(new std::uint8_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       lowest_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
+      near_terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       run_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       ground_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
@@ -128,7 +129,7 @@ std::size_t FeatureMap::reserved_bytes() const {
          2 * static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * sizeof(std::int32_t) +
          (3 * kMaxCores + 1) * sizeof(std::size_t) + columns * sizeof(std::uint32_t) +
          kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes() +
-         trim_.reserved_bytes() + columns * 2 * sizeof(std::int16_t) +
+         trim_.reserved_bytes() + columns * 3 * sizeof(std::int16_t) +
          window_line_size() * sizeof(std::int16_t) +
          static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * (ground_band_cells_ + 1) *
              sizeof(std::int32_t);
@@ -215,11 +216,14 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
   }
   // Columns at the rim of the seen ground (few observed columns hold the ground
   // there) and in the shadows behind obstacles take the lowest terrain of the
-  // surface columns within three window radii (lowest_ is free to reuse now).
+  // surface columns within one window radius, else within three (lowest_ is free
+  // to reuse now): on a slope the lowest within three radii lies under the
+  // ground there, and the band above it would stand out as objects.
   window_min(terrain_.get(), lowest_.get(), column_tmp_.get(), 3 * r);
+  window_min(terrain_.get(), near_terrain_.get(), column_tmp_.get(), r);
   for (std::size_t c = 0; c < columns; ++c) {
     if (terrain_[c] != kNoHeight) continue;
-    terrain_[c] = lowest_[c];
+    terrain_[c] = near_terrain_[c] != kNoHeight ? near_terrain_[c] : lowest_[c];
     // Borrowed terrain: this column's own run (a thing standing there, or one
     // cut by the zone's bottom face) measures no band.
     run_top_[c] = kNoHeight;

@@ -262,13 +262,14 @@ class FeatureMap : public ZoneObserver {
   QuadtreePool shapes_;
 
   // Scratch for one zone, reserved once.
-  std::unique_ptr<std::uint64_t[]> visited_;    // one bit per zone cell
-  std::unique_ptr<std::uint32_t[]> component_;  // cells of the object being filled
-  std::unique_ptr<std::uint8_t[]> footprint_;   // nx * ny
-  std::unique_ptr<std::int16_t[]> lowest_;      // per column: lowest occupied height, or -1
-  std::unique_ptr<std::int16_t[]> terrain_;     // per column: terrain height, or -1
-  std::unique_ptr<std::int16_t[]> run_top_;     // per column: top of the run from lowest_, or -1
-  std::unique_ptr<std::int16_t[]> ground_top_;  // per column: highest ground height, or -1
+  std::unique_ptr<std::uint64_t[]> visited_;      // one bit per zone cell
+  std::unique_ptr<std::uint32_t[]> component_;    // cells of the object being filled
+  std::unique_ptr<std::uint8_t[]> footprint_;     // nx * ny
+  std::unique_ptr<std::int16_t[]> lowest_;        // per column: lowest occupied height, or -1
+  std::unique_ptr<std::int16_t[]> near_terrain_;  // per column: terrain within one window radius
+  std::unique_ptr<std::int16_t[]> terrain_;       // per column: terrain height, or -1
+  std::unique_ptr<std::int16_t[]> run_top_;       // per column: top of the run from lowest_, or -1
+  std::unique_ptr<std::int16_t[]> ground_top_;    // per column: highest ground height, or -1
   // Summed-area tables, one per band height k = 0 .. ground_band_cells_: columns
   // whose clipped run height above the terrain is at least k.
   std::unique_ptr<std::int32_t[]> band_tables_;

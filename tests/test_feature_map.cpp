@@ -271,6 +271,32 @@ TEST(FeatureGround, RunsOfMixedHeightsAreNotABand) {
   EXPECT_EQ(obstacles[0]->max, (CellIndex{13, 29, 5}));
 }
 
+TEST(FeatureGround, TheRimOfARisingSlopeIsGround) {
+  // A slope rising a cell every four columns (x <= 29), and beyond it the rim of
+  // what was seen: columns under free air where only three rows (y 10..12) hold
+  // the ground at x = 31, too few for a surface. The rim borrows the terrain of
+  // the slope beside it (one window radius); the lowest within three radii lies
+  // a cell lower on the slope, and the rim's ground stood out as an obstacle.
+  const std::array<int, 3> dims = {40, 30, 16};
+  FeatureMap map(feature_config(dims, true), true);
+  TestZone zone(dims, {0, 0, 0});
+  const auto ground_z = [](int x) { return x / 4; };
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x <= 29; ++x) {
+      zone.set(x, y, ground_z(x));
+      for (int z = ground_z(x) + 1; z < 16; ++z) zone.set(x, y, z, -kCellScale);
+    }
+    for (int x = 30; x <= 35; ++x) {
+      const bool seen_ground = x == 31 && y >= 10 && y <= 12;
+      for (int z = 0; z < 16; ++z) zone.set(x, y, z, -kCellScale);
+      if (seen_ground) zone.set(x, y, ground_z(x));
+    }
+  }
+  map.extract(zone.view);
+  EXPECT_EQ(features_of(map, FeatureKind::kObstacle).size(), 0u);
+  EXPECT_FALSE(features_of(map, FeatureKind::kGround).empty());
+}
+
 TEST(FeatureExtraction, ThingInFreeSpaceIsNotGround) {
   // A crown cut by the zone's bottom face: low, but surrounded by free air, so
   // not a surface (it fills 16 of the 121 columns of a 10 m window); it stays an

@@ -28,6 +28,9 @@ std::string validate(const MapConfig& c) {
     why << "sensor.depth_filter_radius must be in [0, " << kMaxDepthFilterRadius << "] pixels";
   } else if (!(c.see_through >= 0.0) || c.see_through > 1.0) {
     why << "sensor.see_through must be in [0, 1] (0: off)";
+  } else if (c.see_through_behind > c.see_through ||
+             !(c.see_through_behind >= 0.0 || c.see_through_behind == -1.0)) {
+    why << "sensor.see_through_behind must be in [0, see_through] (or -1: see_through)";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
   } else if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {

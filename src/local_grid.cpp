@@ -183,8 +183,11 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
     const LocalCell value = to_local_cell(max_value_in_interval(ray, t, t_exit));
     write_max(cell[0], cell[1], cell[2], value);
     if (through_marks_) {
+      // Past the measured depth (the whole interval behind it) the lower bar.
+      const bool behind = !ray.free_only && t > ray.depth;
+      const bool near_peak = value >= (behind ? near_peak_behind_ : near_peak_);
       through_marks_[index(cell[0], cell[1], cell[2])] |=
-          (value == -kCellScale ? kSeenThrough : 0) | (value >= near_peak_ ? kNearPeak : 0);
+          (value == -kCellScale ? kSeenThrough : 0) | (near_peak ? kNearPeak : 0);
     }
     ++visited;
     if (t_exit >= t1) break;
@@ -196,8 +199,9 @@ int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& dir
   return visited;
 }
 
-void LocalGrid::enable_see_through(LocalCell near_peak) {
+void LocalGrid::enable_see_through(LocalCell near_peak, LocalCell near_peak_behind) {
   near_peak_ = near_peak;
+  near_peak_behind_ = std::min(near_peak_behind, near_peak);
   through_marks_.reset(new std::uint8_t[cell_count_]());
 }
 

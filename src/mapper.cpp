@@ -123,7 +123,8 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
                                   static_cast<std::size_t>(std::max(camera.width, 1))]()) {
   if (config.see_through > 0.0 && config.integration == MapConfig::Integration::kReference) {
     local_.enable_see_through(
-        static_cast<LocalCell>(to_fixed(static_cast<float>(config.see_through))));
+        static_cast<LocalCell>(to_fixed(static_cast<float>(config.see_through))),
+        static_cast<LocalCell>(to_fixed(static_cast<float>(config.near_peak_behind()))));
   }
   part_filters_.reserve(kMaxDepthParts - 1);
   for (int p = 1; p < kMaxDepthParts; ++p) {

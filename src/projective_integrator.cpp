@@ -128,6 +128,8 @@ ProjectiveIntegrator::ProjectiveIntegrator(const MapConfig& config, const Camera
       code_to_m_(static_cast<float>(1.0 / camera.depth_scale)),
       see_through_(config.see_through > 0.0),
       near_peak_fixed_(to_fixed(static_cast<float>(config.see_through))),
+      near_peak_behind_fixed_(
+          std::min(near_peak_fixed_, to_fixed(static_cast<float>(config.near_peak_behind())))),
       max_real_code_(static_cast<std::uint16_t>(
           std::clamp(std::floor(config.d_max_m * camera.depth_scale), 1.0,
                      static_cast<double>(DepthRangeTable::kMaxDepthCode)))),
@@ -458,6 +460,21 @@ __attribute__((always_inline)) inline bool four_rays_any_free_across(const std::
                     (values <= (0.5f - kCellScale) / kCellScale - kFreeAcrossMargin) &
                     (clipped.leave - clipped.enter >= rays.min_through);
   return (free[0] | free[1] | free[2] | free[3]) != 0;
+}
+
+// Whether one of them ended before the cell (its measured depth at most where
+// it enters) and keeps m̂ >= near_peak (Q6) in it. A tie goes to keeping the
+// cell: the bar is lowered by kFreeAcrossMargin (as four_rays_any_free_across).
+__attribute__((always_inline)) inline bool four_rays_near_peak_behind(const std::uint16_t* row,
+                                                                      int width, int u0, int v,
+                                                                      int count, int near_peak,
+                                                                      const RayLanes& rays) {
+  const Clipped clipped = clip_to_cell(four_columns(u0), splat(static_cast<float>(v)), rays);
+  const Lanes code = four_codes(row, width, u0, count);
+  const Lanes values = values_in_cell(code, clipped, rays);
+  const float bar = (static_cast<float>(near_peak) - 0.5f) / kCellScale - kFreeAcrossMargin;
+  const auto kept = (values >= bar) & (clipped.leave >= code * rays.code_to_m);
+  return (kept[0] | kept[1] | kept[2] | kept[3]) != 0;
 }
 
 }  // namespace
@@ -1156,7 +1173,10 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
     const float lower = probed;
     if (!(lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_) &&
         any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell) &&
-        !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats))) {
+        !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats)) &&
+        !(near_peak_behind_fixed_ < near_peak_fixed_ &&
+          to_fixed(value) >= near_peak_behind_fixed_ &&
+          reaches_near_peak_behind(depths, px0, py0, px1, py1, cell))) {
       value = -1.0f;
     }
   }
@@ -1173,6 +1193,40 @@ bool ProjectiveIntegrator::reaches_near_peak(const DepthRangeTable& depths, int 
   const float found = exact_value(depths, x0, y0, x1, y1, cell, lower, &stats->rays_exact);
   cell.enough_fixed = enough;
   return found >= -1.0f && to_fixed(found) >= near_peak_fixed_;
+}
+
+bool ProjectiveIntegrator::reaches_near_peak_behind(const DepthRangeTable& depths, int x0, int y0,
+                                                    int x1, int y1, const CellRays& cell) const {
+  // As any_ray_crosses, over the rows holding a depth d that ended before the
+  // cell's far end b and whose ray reaches its near end a with m̂ at the bar:
+  // d <= b and d + s Δd(d) >= a (s = 1 - the bar), widened by a code.
+  const float s = 1.0f - (static_cast<float>(near_peak_behind_fixed_) - 0.5f) / kCellScale;
+  std::uint16_t reach_lo = 0, unused_hi = 0;
+  codes_reaching(cell.a, cell.b, s * (129.0f / 128.0f), 1.0f, false, &reach_lo, &unused_hi);
+  const float top = static_cast<float>(DepthRangeTable::kMaxDepthCode);
+  const auto reach_hi =
+      static_cast<std::uint16_t>(std::clamp(std::ceil(cell.b / code_to_m_) + 1.0f, 0.0f, top));
+  if (reach_lo > reach_hi) return false;
+  return tiles_middle_out(
+      x0, y0, x1, y1, [&](int tx, int ty, int ex, int ey) __attribute__((always_inline)) {
+        std::uint16_t lo_code = 0, hi_code = 0;
+        depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+        if (lo_code > hi_code || hi_code < reach_lo || lo_code > reach_hi) return false;
+        const int count = ex - tx + 1;
+        const int width = depths.width();
+        for (int v = ty; v <= ey; ++v) {
+          const int halves =
+              row_halves_with_code_in(depths.codes(), width, tx, count, v, reach_lo, reach_hi);
+          const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * width;
+          if ((halves & 1) && four_rays_near_peak_behind(row, width, tx, v, std::min(count, 4),
+                                                         near_peak_behind_fixed_, cell.rays))
+            return true;
+          if ((halves & 2) && four_rays_near_peak_behind(row, width, tx + 4, v, count - 4,
+                                                         near_peak_behind_fixed_, cell.rays))
+            return true;
+        }
+        return false;
+      });
 }
 
 }  // namespace zonemap

@@ -101,6 +101,8 @@ TEST(BadConfig, OutOfRangeValuesAreRefused) {
       {"sensor: {depth_filter_radius: -1}\n", "depth_filter_radius"},
       {"sensor: {see_through: 1.5}\n", "see_through"},
       {"sensor: {see_through: -0.5}\n", "see_through"},
+      {"sensor: {see_through: 0.5, see_through_behind: 0.7}\n", "see_through_behind"},
+      {"sensor: {see_through: 0.5, see_through_behind: -0.2}\n", "see_through_behind"},
       {"features: {peak_fraction: 1.0}\n", "peak_fraction"},
       {"features: {peak_fraction: 0.5, peak_window_m: 100.0}\n", "peak_window_m"},
   };

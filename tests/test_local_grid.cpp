@@ -321,7 +321,9 @@ TEST(LocalGrid, SeeingThroughFreesTheBandWhereARayPassedFree) {
   // where A stayed below m̂ 0.5 and keeps the rest.
   for (const bool see_through : {false, true}) {
     LocalGrid grid({20, 3, 3});
-    if (see_through) grid.enable_see_through(static_cast<LocalCell>(kCellScale / 2));
+    if (see_through)
+      grid.enable_see_through(static_cast<LocalCell>(kCellScale / 2),
+                              static_cast<LocalCell>(kCellScale / 2));
     grid.reset(CellIndex{});
     const Eigen::Vector3f start(0.0f, 1.5f, 1.5f), along_x(1.0f, 0.0f, 0.0f);
     RayProfile a;
@@ -342,6 +344,36 @@ TEST(LocalGrid, SeeingThroughFreesTheBandWhereARayPassedFree) {
     EXPECT_EQ(grid.at(10, 1, 1), kCellScale) << "A's depth is in it";
     EXPECT_EQ(grid.at(15, 1, 1), -kCellScale);
     EXPECT_EQ(grid.at(2, 1, 1), -kCellScale);
+  }
+}
+
+TEST(LocalGrid, SeeingThroughKeepsWhatLiesJustBehindAMeasuredSurface) {
+  // The rays of the first test, seeing through at 0.7. Cell 8 lies in front of
+  // A's depth (m̂ 0.5 at most): seen through. Cell 11 lies behind it (A ended
+  // before it, m̂ 0.5 at its near end): with see_through_behind 0.5 A keeps it
+  // (the inside of a trunk whose edge rays pass by); at 0.7 it is freed.
+  const auto q6 = [](double v) { return static_cast<LocalCell>(to_fixed(static_cast<float>(v))); };
+  for (const double behind : {0.5, 0.7}) {
+    LocalGrid grid({20, 3, 3});
+    grid.enable_see_through(q6(0.7), q6(behind));
+    grid.reset(CellIndex{});
+    const Eigen::Vector3f start(0.0f, 1.5f, 1.5f), along_x(1.0f, 0.0f, 0.0f);
+    RayProfile a;
+    a.delta_begin = 0.0f;
+    a.delta_end = 12.0f;
+    a.depth = 10.0f;
+    a.range_resolution = 2.0f;
+    RayProfile b = a;
+    b.delta_end = 19.5f;
+    b.depth = 19.0f;
+    b.range_resolution = 0.5f;
+    grid.draw_ray(start, along_x, a);
+    grid.draw_ray(start, along_x, b);
+    grid.finish(0);
+    EXPECT_EQ(grid.at(8, 1, 1), -kCellScale) << "in front of the surface: seen through";
+    EXPECT_EQ(grid.at(9, 1, 1), kCellScale) << "A's depth ends it: kept";
+    EXPECT_EQ(grid.at(10, 1, 1), kCellScale) << "A's depth is in it";
+    EXPECT_EQ(grid.at(11, 1, 1), behind == 0.5 ? kCellScale / 2 : -kCellScale) << behind;
   }
 }
 

@@ -159,8 +159,10 @@ TEST(DepthRangeTable, RangesMatchBruteForce) {
 
 // Both paths over four frames of a generated flight (640x480, every third of its
 // trajectory, noise from `seed`), with the config its scenario names, set to
-// `see_through`. A flight that cannot be made touches no cell (and fails).
-Agreement flight_agreement(const char* name, std::uint64_t seed, double see_through) {
+// `see_through` (and `see_through_behind`). A flight that cannot be made touches
+// no cell (and fails).
+Agreement flight_agreement(const char* name, std::uint64_t seed, double see_through,
+                           double see_through_behind = -1.0) {
   sim::Scenario scenario;
   std::string error;
   MapConfig config;
@@ -170,6 +172,7 @@ Agreement flight_agreement(const char* name, std::uint64_t seed, double see_thro
     return {};
   }
   config.see_through = see_through;
+  config.see_through_behind = see_through_behind;
   const std::size_t pixels = 640 * 480;
   std::vector<std::uint16_t> depth(pixels);
   std::vector<std::uint8_t> left(pixels);
@@ -201,7 +204,7 @@ TEST(Projective, AgreesWithReferenceSeeingThrough) {
       << error;
   ASSERT_GT(flight2.see_through, 0.0) << "paper-flight2 ships without it";
   for (const char* name : {"hedge", "posts-through", "treeline-dense"}) {
-    expect_agreement(flight_agreement(name, 23, flight2.see_through),
+    expect_agreement(flight_agreement(name, 23, flight2.see_through, flight2.see_through_behind),
                      std::string(name) + " seeing through");
   }
 }
@@ -218,8 +221,9 @@ TEST(Projective, AgreesWithReferenceSeeingThroughOnMoreFlights) {
       << error;
   for (const char* name : {"hedge", "treeline-dense", "treeline"}) {
     for (std::uint64_t seed = 24; seed <= 31; ++seed) {
-      expect_agreement(flight_agreement(name, seed, flight2.see_through),
-                       std::string(name) + " seeing through, noise " + std::to_string(seed));
+      expect_agreement(
+          flight_agreement(name, seed, flight2.see_through, flight2.see_through_behind),
+          std::string(name) + " seeing through, noise " + std::to_string(seed));
     }
   }
 }

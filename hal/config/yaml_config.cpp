@@ -45,6 +45,7 @@ static bool parse_map_config(const YAML::Node& root, const std::string& path, Ma
                                        {"pixel_step", into(&c.pixel_step)},
                                        {"depth_filter_radius", into(&c.depth_filter_radius_px)},
                                        {"see_through", into(&c.see_through)},
+                                       {"see_through_behind", into(&c.see_through_behind)},
                                        {"integration", integration}})},
          {"blur", section("blur", {{"radius", into(&c.blur_radius)}})},
          {"fusion", section("fusion", {{"saturation", into(&c.saturation_units)},

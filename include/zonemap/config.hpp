@@ -96,6 +96,15 @@ struct MapConfig {
   // measurement's spread, not a thing. What stands in a cell is kept by the rays
   // that end in it. 0: off (the paper's max-write).
   double see_through = 0.0;
+  // A cell behind a ray's measured depth (the ray ended before it) is kept by
+  // that ray when its m̂ there reaches see_through_behind (at most see_through;
+  // < 0: see_through). Lower than see_through, it keeps what lies just behind a
+  // measured surface (the inside of a trunk whose edge rays pass) while the band
+  // in front of a surface is still seen through.
+  double see_through_behind = -1.0;
+  double near_peak_behind() const {
+    return see_through_behind < 0.0 ? see_through : see_through_behind;
+  }
   int blur_radius = 1;  // binomial kernel radius (0 = no blur)
   // Eq. (7) adds every view alike (kEqual, the paper's); kRangeWeighted scales a
   // view's occupied evidence by (δ_full / δ)², at least min_weight, beyond δ_full,

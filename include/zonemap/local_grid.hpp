@@ -38,9 +38,10 @@ class LocalGrid {
 
   // MapConfig::see_through for draw_ray: from now on each cell remembers whether
   // a ray crossed it wholly free and whether one reached `near_peak` (Q6) in it,
-  // and finish() first frees the cells seen through and never near a peak.
-  // Reserves a byte per cell: call at start-up.
-  void enable_see_through(LocalCell near_peak);
+  // or `near_peak_behind` past its measured depth, and finish() first frees the
+  // cells seen through and never near a peak. Reserves a byte per cell: call at
+  // start-up.
+  void enable_see_through(LocalCell near_peak, LocalCell near_peak_behind);
 
   // Widens the region that finish() and fusion work on to hold [lo, hi] (grid
   // cells, clipped). Every writer says where it wrote; cells outside stay untouched.
@@ -122,6 +123,7 @@ class LocalGrid {
   static constexpr std::uint8_t kSeenThrough = 1, kNearPeak = 2;
   std::unique_ptr<std::uint8_t[]> through_marks_;
   LocalCell near_peak_ = 0;
+  LocalCell near_peak_behind_ = 0;  // <= near_peak_
   // Scratch, one of each per part of the blur (kMaxFinishParts):
   std::unique_ptr<std::int16_t[]> line_;  // one x line of cells, padded by the kernel radius
   std::unique_ptr<LocalCell[]> saved_;    // originals of the last x rows overwritten (a ring)

@@ -95,6 +95,10 @@ class ProjectiveIntegrator {
                            std::uint16_t hi_code, const CellRays& cell) const;
   bool reaches_near_peak(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float lower,
                          CellRays& cell, ProjectiveStats* stats) const;
+  // MapConfig::see_through_behind: whether some ray that ended before the cell
+  // reaches that near peak in it (past its measured depth).
+  bool reaches_near_peak_behind(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
+                                const CellRays& cell) const;
 
   // draw() in three parts: the frame's constants, the frustum's rows (in draw),
   // and one cell settled (free, the reference's sign, or left alone).
@@ -134,6 +138,7 @@ class ProjectiveIntegrator {
   float code_to_m_;              // raw depth code -> metres
   bool see_through_;             // MapConfig::see_through > 0
   int near_peak_fixed_;          // MapConfig::see_through in Q6
+  int near_peak_behind_fixed_;   // MapConfig::near_peak_behind() in Q6 (<= near_peak_fixed_)
   std::uint16_t max_real_code_;  // the largest real depth code (d_max)
   CameraModel camera_;
 };

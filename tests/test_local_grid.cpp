@@ -314,30 +314,35 @@ TEST(LocalGrid, RangeWeightingScalesFarOccupiedEvidenceOnly) {
   EXPECT_EQ(grid.at(10, 1, 1), 0) << "unknown stays unknown";
 }
 
+// Along one row of 1 m cells: ray A measures 10 m with Δd 2 (free up to 6 m,
+// m̂ 0 at 8 m, peak at 10 m, gone at 12 m); ray B passes the same cells free up
+// to 18 m. Drawn into a fresh 20 x 3 x 3 grid and finished without blur.
+void draw_band_and_passing_ray(LocalGrid& grid) {
+  grid.reset(CellIndex{});
+  const Eigen::Vector3f start(0.0f, 1.5f, 1.5f), along_x(1.0f, 0.0f, 0.0f);
+  RayProfile a;
+  a.delta_begin = 0.0f;
+  a.delta_end = 12.0f;
+  a.depth = 10.0f;
+  a.range_resolution = 2.0f;
+  RayProfile b = a;
+  b.delta_end = 19.5f;
+  b.depth = 19.0f;
+  b.range_resolution = 0.5f;
+  grid.draw_ray(start, along_x, a);
+  grid.draw_ray(start, along_x, b);
+  grid.finish(0);
+}
+
 TEST(LocalGrid, SeeingThroughFreesTheBandWhereARayPassedFree) {
-  // Along one row of 1 m cells: ray A measures 10 m with Δd 2 (free up to 6 m,
-  // m̂ 0 at 8 m, peak at 10 m, gone at 12 m); ray B passes the same cells free up
-  // to 18 m. Max-write keeps A's band; seeing through (0.5) frees the cells
-  // where A stayed below m̂ 0.5 and keeps the rest.
+  // Max-write keeps A's band; seeing through (0.5) frees the cells where A
+  // stayed below m̂ 0.5 and keeps the rest.
   for (const bool see_through : {false, true}) {
     LocalGrid grid({20, 3, 3});
     if (see_through)
       grid.enable_see_through(static_cast<LocalCell>(kCellScale / 2),
                               static_cast<LocalCell>(kCellScale / 2));
-    grid.reset(CellIndex{});
-    const Eigen::Vector3f start(0.0f, 1.5f, 1.5f), along_x(1.0f, 0.0f, 0.0f);
-    RayProfile a;
-    a.delta_begin = 0.0f;
-    a.delta_end = 12.0f;
-    a.depth = 10.0f;
-    a.range_resolution = 2.0f;
-    RayProfile b = a;
-    b.delta_end = 19.5f;
-    b.depth = 19.0f;
-    b.range_resolution = 0.5f;
-    grid.draw_ray(start, along_x, a);
-    grid.draw_ray(start, along_x, b);
-    grid.finish(0);
+    draw_band_and_passing_ray(grid);
     EXPECT_EQ(grid.at(6, 1, 1), see_through ? -kCellScale : -kCellScale / 2) << see_through;
     EXPECT_EQ(grid.at(7, 1, 1), see_through ? -kCellScale : 0) << see_through;
     EXPECT_EQ(grid.at(8, 1, 1), kCellScale / 2) << "A reaches 0.5 in it: kept";
@@ -348,7 +353,7 @@ TEST(LocalGrid, SeeingThroughFreesTheBandWhereARayPassedFree) {
 }
 
 TEST(LocalGrid, SeeingThroughKeepsWhatLiesJustBehindAMeasuredSurface) {
-  // The rays of the first test, seeing through at 0.7. Cell 8 lies in front of
+  // The same rays, seeing through at 0.7. Cell 8 lies in front of
   // A's depth (m̂ 0.5 at most): seen through. Cell 11 lies behind it (A ended
   // before it, m̂ 0.5 at its near end): with see_through_behind 0.5 A keeps it
   // (the inside of a trunk whose edge rays pass by); at 0.7 it is freed.
@@ -356,20 +361,7 @@ TEST(LocalGrid, SeeingThroughKeepsWhatLiesJustBehindAMeasuredSurface) {
   for (const double behind : {0.5, 0.7}) {
     LocalGrid grid({20, 3, 3});
     grid.enable_see_through(q6(0.7), q6(behind));
-    grid.reset(CellIndex{});
-    const Eigen::Vector3f start(0.0f, 1.5f, 1.5f), along_x(1.0f, 0.0f, 0.0f);
-    RayProfile a;
-    a.delta_begin = 0.0f;
-    a.delta_end = 12.0f;
-    a.depth = 10.0f;
-    a.range_resolution = 2.0f;
-    RayProfile b = a;
-    b.delta_end = 19.5f;
-    b.depth = 19.0f;
-    b.range_resolution = 0.5f;
-    grid.draw_ray(start, along_x, a);
-    grid.draw_ray(start, along_x, b);
-    grid.finish(0);
+    draw_band_and_passing_ray(grid);
     EXPECT_EQ(grid.at(8, 1, 1), -kCellScale) << "in front of the surface: seen through";
     EXPECT_EQ(grid.at(9, 1, 1), kCellScale) << "A's depth ends it: kept";
     EXPECT_EQ(grid.at(10, 1, 1), kCellScale) << "A's depth is in it";

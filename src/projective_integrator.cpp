@@ -1171,13 +1171,17 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
     set_cell_box();
     const bool may_reach = to_fixed(value) >= near_peak_fixed_;
     const float lower = probed;
-    if (!(lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_) &&
-        any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell) &&
-        !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats)) &&
-        !(near_peak_behind_fixed_ < near_peak_fixed_ &&
-          to_fixed(value) >= near_peak_behind_fixed_ &&
-          reaches_near_peak_behind(depths, px0, py0, px1, py1, cell))) {
+    const bool probes_near = lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_;
+    if (!any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell)) {
+      // Not seen through: the value stands.
+    } else if (!probes_near &&
+               !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats)) &&
+               !(near_peak_behind_fixed_ < near_peak_fixed_ &&
+                 to_fixed(value) >= near_peak_behind_fixed_ &&
+                 reaches_near_peak_behind(depths, px0, py0, px1, py1, cell))) {
       value = -1.0f;
+    } else if (to_fixed(value) > 0) {
+      value = exact_at_edge(depths, px0, py0, px1, py1, value, lower, cell, stats);
     }
   }
   grid.write_max(x, y, z, to_local_cell(value));
@@ -1193,6 +1197,23 @@ bool ProjectiveIntegrator::reaches_near_peak(const DepthRangeTable& depths, int 
   const float found = exact_value(depths, x0, y0, x1, y1, cell, lower, &stats->rays_exact);
   cell.enough_fixed = enough;
   return found >= -1.0f && to_fixed(found) >= near_peak_fixed_;
+}
+
+// A cell seen through and kept lies at an edge (a silhouette, a gap): the
+// footprint's depths beside it gave U, which there may exceed every ray that
+// crosses it. Summed over frames that excess fills the gaps between things, so
+// here the cell takes the rays' exact maximum (from `lower`, some ray's value).
+float ProjectiveIntegrator::exact_at_edge(const DepthRangeTable& depths, int x0, int y0, int x1,
+                                          int y1, float upper, float lower, CellRays& cell,
+                                          ProjectiveStats* stats) const {
+  if (lower >= -1.0f && to_fixed(lower) >= to_fixed(upper)) return upper;
+  const int enough = cell.enough_fixed;
+  cell.enough_fixed = to_fixed(upper);
+  const float found = exact_value(depths, x0, y0, x1, y1, cell, lower, &stats->rays_exact);
+  const bool below = found >= -1.0f && to_fixed(found) < cell.enough_fixed;
+  cell.enough_fixed = enough;
+  ++stats->cells_exact;
+  return below ? found : upper;
 }
 
 bool ProjectiveIntegrator::reaches_near_peak_behind(const DepthRangeTable& depths, int x0, int y0,

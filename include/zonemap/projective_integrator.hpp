@@ -31,8 +31,8 @@ struct ProjectiveStats {
   std::int64_t cells_block_free = 0;  // free: settled by their block's bound and one ray
   std::int64_t cells_box_free = 0;    // free: settled by their own box's bound
   std::int64_t cells_hidden = 0;      // in the frustum, behind every surface: no ray reaches
-  std::int64_t cells_exact = 0;       // settled ray by ray (bounds did not agree)
-  std::int64_t rays_exact = 0;        // pixel rays clipped against those cells
+  std::int64_t cells_exact = 0;  // settled ray by ray (bounds did not agree; edges seen through)
+  std::int64_t rays_exact = 0;   // pixel rays clipped against those cells
   ProjectiveStats& operator+=(const ProjectiveStats& o) {
     cells_evaluated += o.cells_evaluated;
     cells_block_free += o.cells_block_free;
@@ -99,6 +99,10 @@ class ProjectiveIntegrator {
   // reaches that near peak in it (past its measured depth).
   bool reaches_near_peak_behind(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                                 const CellRays& cell) const;
+  // A kept cell that some ray crossed wholly free: the rays' exact maximum when
+  // it lies below the footprint's bound `upper`.
+  float exact_at_edge(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float upper,
+                      float lower, CellRays& cell, ProjectiveStats* stats) const;
 
   // draw() in three parts: the frame's constants, the frustum's rows (in draw),
   // and one cell settled (free, the reference's sign, or left alone).

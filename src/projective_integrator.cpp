@@ -1172,31 +1172,46 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
     const bool may_reach = to_fixed(value) >= near_peak_fixed_;
     const float lower = probed;
     const bool probes_near = lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_;
-    if (!any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell)) {
-      // Not seen through: the value stands.
-    } else if (!probes_near &&
-               !(may_reach && reaches_near_peak(depths, px0, py0, px1, py1, lower, cell, stats)) &&
-               !(near_peak_behind_fixed_ < near_peak_fixed_ &&
-                 to_fixed(value) >= near_peak_behind_fixed_ &&
-                 reaches_near_peak_behind(depths, px0, py0, px1, py1, cell))) {
-      value = -1.0f;
-    } else if (to_fixed(value) > 0) {
-      value = exact_at_edge(depths, px0, py0, px1, py1, value, lower, cell, stats);
+    // The probes reaching U: kept at its exact value, whether seen through or not.
+    const bool settled = probes_near && to_fixed(lower) >= to_fixed(value);
+    if (!settled && any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell)) {
+      // Some ray reaches the near peak (or, behind its depth, the lower bar):
+      // kept, from the best value found so far; else seen through.
+      float near = probes_near ? lower : kNoRay;
+      if (!probes_near && may_reach) {
+        near = near_peak_value(depths, px0, py0, px1, py1, lower, cell, stats);
+      }
+      const bool kept = (near >= -1.0f && to_fixed(near) >= near_peak_fixed_) ||
+                        (near_peak_behind_fixed_ < near_peak_fixed_ &&
+                         to_fixed(value) >= near_peak_behind_fixed_ &&
+                         reaches_near_peak_behind(depths, px0, py0, px1, py1, cell));
+      // A search that did not reach the near peak found the exact maximum.
+      const bool near_exact =
+          !probes_near && may_reach && near >= -1.0f && to_fixed(near) < near_peak_fixed_;
+      if (!kept) {
+        value = -1.0f;
+      } else if (near_exact) {
+        value = std::min(value, near);
+      } else if (to_fixed(value) > 0) {
+        value =
+            exact_at_edge(depths, px0, py0, px1, py1, value, std::max(lower, near), cell, stats);
+      }
     }
   }
   grid.write_max(x, y, z, to_local_cell(value));
 }
 
-// Whether some ray's m̂ in the cell reaches see_through's near peak (Q6), ray by
-// ray from `lower` (a value some ray reaches, below the near peak).
-bool ProjectiveIntegrator::reaches_near_peak(const DepthRangeTable& depths, int x0, int y0, int x1,
-                                             int y1, float lower, CellRays& cell,
-                                             ProjectiveStats* stats) const {
+// Ray by ray from `lower` (a value some ray reaches, below the near peak): a
+// value some ray reaches in the cell, at least see_through's near peak (Q6) when
+// one does, else the rays' exact maximum.
+float ProjectiveIntegrator::near_peak_value(const DepthRangeTable& depths, int x0, int y0, int x1,
+                                            int y1, float lower, CellRays& cell,
+                                            ProjectiveStats* stats) const {
   const int enough = cell.enough_fixed;
   cell.enough_fixed = near_peak_fixed_;
   const float found = exact_value(depths, x0, y0, x1, y1, cell, lower, &stats->rays_exact);
   cell.enough_fixed = enough;
-  return found >= -1.0f && to_fixed(found) >= near_peak_fixed_;
+  return found;
 }
 
 // A cell seen through and kept lies at an edge (a silhouette, a gap): the

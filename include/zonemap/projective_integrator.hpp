@@ -93,8 +93,8 @@ class ProjectiveIntegrator {
   std::uint16_t first_code_free_beyond(float b) const;
   bool any_ray_free_across(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                            std::uint16_t hi_code, const CellRays& cell) const;
-  bool reaches_near_peak(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float lower,
-                         CellRays& cell, ProjectiveStats* stats) const;
+  float near_peak_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1, float lower,
+                        CellRays& cell, ProjectiveStats* stats) const;
   // MapConfig::see_through_behind: whether some ray that ended before the cell
   // reaches that near peak in it (past its measured depth).
   bool reaches_near_peak_behind(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,

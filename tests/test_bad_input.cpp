@@ -74,6 +74,23 @@ TEST(BadConfig, UnknownKeyNamesFileAndLine) {
   EXPECT_NE(error.find("c.yaml:3: unknown key 'zone_cels' in 'map'"), std::string::npos) << error;
 }
 
+TEST(BadConfig, ADirectoryGivenAsAFileIsRefused) {
+  // A directory opens as a stream on Linux; reading it must be an error, not a crash.
+  TempDir dir;
+  std::filesystem::create_directory(dir / "c.yaml");
+  std::string error;
+  MapConfig config;
+  EXPECT_FALSE(hal::load_map_config(dir / "c.yaml", &config, &error));
+  EXPECT_NE(error.find("c.yaml: a directory, not a file"), std::string::npos) << error;
+  CameraModel camera;
+  EXPECT_FALSE(hal::load_camera_yaml(dir / "c.yaml", &camera, &error));
+  EXPECT_NE(error.find("c.yaml: a directory, not a file"), std::string::npos) << error;
+  std::vector<std::uint16_t> out(16 * 12);
+  std::filesystem::create_directory(dir / "d.png");
+  EXPECT_FALSE(hal::read_png_gray16(dir / "d.png", 16, 12, out.data(), &error));
+  EXPECT_NE(error.find("d.png"), std::string::npos) << error;
+}
+
 TEST(BadConfig, WrongTypeNamesFileAndLine) {
   TempDir dir;
   write_text(dir / "c.yaml", "sensor:\n  d_min_m: 8.0\n  d_max_m: far\n");

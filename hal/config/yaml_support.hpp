@@ -4,6 +4,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <exception>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
@@ -85,6 +87,13 @@ bool read_explained(const std::string& path, std::string* error, Read read) {
 }
 
 inline bool load_file(const std::string& path, YAML::Node* root, std::string* error) {
+  // A directory opens as a stream on Linux and throws std::ios_base::failure on the first
+  // read, which is no YAML::Exception.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    *error = path + ": a directory, not a file";
+    return false;
+  }
   try {
     *root = YAML::LoadFile(path);
   } catch (const YAML::BadFile&) {
@@ -92,6 +101,9 @@ inline bool load_file(const std::string& path, YAML::Node* root, std::string* er
     return false;
   } catch (const YAML::Exception& e) {
     *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  } catch (const std::exception& e) {
+    *error = path + ": cannot read (" + e.what() + ")";
     return false;
   }
   return true;

@@ -36,7 +36,8 @@ Pipeline::Impl::Impl(hal::FrameSource& frame_source, const PoseTrack* replay, ha
   jobs.connect(&mapping_bell, &extraction_bell);
   reintegration.connect(&extraction_bell, &mapping_bell);
   for (std::uint32_t i = 0; i < kSnapshotSlots; ++i) {
-    snapshots.push_back(std::make_unique<ZoneSnapshot>(m.config().zone_cells));
+    snapshots.push_back(
+        std::make_unique<ZoneSnapshot>(m.config().zone_cells, coarse_level_step(m.config())));
     snapshot_free.push(i);
   }
   for (auto& frame : frames) frame = source.make_frame();

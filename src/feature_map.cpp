@@ -97,7 +97,7 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       column_queue_(new std::uint32_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       region_box_(new RegionBox[kMaxCores]()),
       region_root_(new std::uint16_t[kMaxCores]()),
-      scratch_(config.zone_cells),
+      scratch_(config.zone_cells, coarse_level_step(config)),
       trim_(make_peak_trim(config)),
       d_max_m_(config.d_max_m) {}
 
@@ -456,7 +456,7 @@ std::size_t FeatureMap::split_at_valleys(const ZoneSnapshot& zone, std::size_t c
   std::uint32_t cores = 0;
   // Levels 0.9^k of the peak down to the occupied threshold: a dip of a tenth
   // shows, and a weak object next to a strong one still rises apart from it.
-  const int floor_level = threshold_ / ZoneSnapshot::kLevelStep + 1;
+  const int floor_level = threshold_ / zone.level_step() + 1;
   for (int level = peak * 9 / 10; level >= floor_level; level = level * 9 / 10) {
     tail = grow_regions(zone, queue, tail, level);
     tail = add_cores(zone, count, queue, tail, level, &cores);

@@ -10,10 +10,16 @@ namespace zonemap {
 // The bit packing below reads eight flag bytes as one little-endian word.
 static_assert(std::endian::native == std::endian::little);
 
-ZoneSnapshot::ZoneSnapshot(const std::array<int, 3>& dims)
+int coarse_level_step(const MapConfig& config) {
+  return std::max(kMinLevelStep,
+                  (to_fixed(static_cast<float>(config.saturation_units)) + 255) / 256);
+}
+
+ZoneSnapshot::ZoneSnapshot(const std::array<int, 3>& dims, int level_step)
     : dims_(dims),
       cells_(static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) *
              static_cast<std::size_t>(dims[2])),
+      level_step_(std::max(level_step, 1)),
       occupied_(new std::uint64_t[(cells_ + 63) / 64]()),
       rank_(new std::uint32_t[((cells_ + 63) / 64 + kRankWords - 1) / kRankWords]()),
       level_capacity_(cells_ / 16),
@@ -100,33 +106,34 @@ void ZoneSnapshot::capture_levels(const FusedCell* cells) {
         break;
       }
       const std::size_t i = w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
-      levels_[rank++] = static_cast<std::uint8_t>(std::min(cells[i] / kLevelStep, 255));
+      levels_[rank++] = static_cast<std::uint8_t>(std::min(cells[i] / level_step_, 255));
     }
   }
 }
 
 namespace {
 
-// A fused value as a coarse level (ZoneSnapshot::kLevelStep units, 0..255).
-inline std::uint8_t level_of(FusedCell value) {
-  return static_cast<std::uint8_t>(std::clamp(value / ZoneSnapshot::kLevelStep, 0, 255));
+// A fused value as a coarse level (level_step units, 0..255).
+inline std::uint8_t level_of(FusedCell value, int level_step) {
+  return static_cast<std::uint8_t>(std::clamp(value / level_step, 0, 255));
 }
 
 }  // namespace
 
-PeakTrim::PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy)
+PeakTrim::PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy, int level_step)
     : dims_(dims),
       fraction_256_(static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * 256.0))),
-      radius_(std::max(radius_xy, 0)) {
+      radius_(std::max(radius_xy, 0)),
+      level_step_(std::max(level_step, 1)) {
   if (enabled()) {
     planes_.reset(new std::uint8_t[4 * static_cast<std::size_t>(dims[0]) * dims[1]]());
   }
 }
 
 PeakTrim make_peak_trim(const MapConfig& config) {
-  return PeakTrim(
-      config.zone_cells, config.features.peak_fraction,
-      static_cast<int>(std::lround(config.features.peak_window_m / config.cell_size_m)));
+  return PeakTrim(config.zone_cells, config.features.peak_fraction,
+                  static_cast<int>(std::lround(config.features.peak_window_m / config.cell_size_m)),
+                  coarse_level_step(config));
 }
 
 std::size_t PeakTrim::reserved_bytes() const {
@@ -145,7 +152,7 @@ void PeakTrim::plane_maxima(const ZoneView& zone, int z, std::uint8_t* out) cons
     const FusedCell* in = cells + static_cast<std::size_t>(y) * nx;
     std::uint8_t* row = pass + static_cast<std::size_t>(y) * nx;
     std::uint8_t* levels = out + static_cast<std::size_t>(y) * nx;  // out as scratch
-    for (int x = 0; x < nx; ++x) levels[x] = level_of(in[x]);
+    for (int x = 0; x < nx; ++x) levels[x] = level_of(in[x], level_step_);
     for (int x = 0; x < nx; ++x) row[x] = levels[x];
     for (int k = 1; k <= r; ++k) {
       for (int x = 0; x + k < nx; ++x) row[x] = std::max(row[x], levels[x + k]);
@@ -199,7 +206,7 @@ void PeakTrim::apply(const ZoneView& zone, std::uint64_t* occupied) const {
           std::uint8_t peak = ring(z)[j];
           if (below) peak = std::max(peak, ring(z - 1)[j]);
           if (above) peak = std::max(peak, ring(z + 1)[j]);
-          if (256 * level_of(zone.cells[i]) < fraction_256_ * peak) {
+          if (256 * level_of(zone.cells[i], level_step_) < fraction_256_ * peak) {
             occupied[w] &= ~(std::uint64_t{1} << (i & 63));
           }
         }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "tools/sim/scene.hpp"
+#include "zonemap/config.hpp"
 #include "zonemap/zone_snapshot.hpp"
 
 namespace zonemap {
@@ -69,7 +70,7 @@ TEST(PeakTrim, KeepsTheCellsHoldingTheFractionOfTheirNeighbourhoodsPeak) {
   }
   ZoneView view{{0, 0, 0}, {0, 0, 0}, dims, cells.data()};
   for (const int radius : {0, 1, 3}) {
-    const PeakTrim trim(dims, 0.5, radius);
+    const PeakTrim trim(dims, 0.5, radius, kMinLevelStep);
     ZoneSnapshot snapshot(dims);
     snapshot.capture(view, 96, &trim);
     int kept = 0, trimmed = 0;
@@ -104,7 +105,7 @@ TEST(PeakTrim, TheHaloGoesAWeakThingApartStays) {
       cells[view.index(11, y, z)] = 5 * 64;
     }
   for (int z = 0; z < 6; ++z) cells[view.index(15, 6, z)] = 3 * 64;
-  const PeakTrim trim(dims, 0.5, 3);
+  const PeakTrim trim(dims, 0.5, 3, kMinLevelStep);
   ZoneSnapshot snapshot(dims);
   snapshot.capture(view, 96, &trim);
   for (int z = 0; z < 6; ++z) {
@@ -115,10 +116,47 @@ TEST(PeakTrim, TheHaloGoesAWeakThingApartStays) {
     }
     EXPECT_TRUE(snapshot.occupied(view.index(15, 6, z))) << "the post is 5 cells from the wall";
   }
-  const PeakTrim off(dims, 0.0, 3);
+  const PeakTrim off(dims, 0.0, 3, kMinLevelStep);
   EXPECT_FALSE(off.enabled());
   snapshot.capture(view, 96, &off);
   EXPECT_TRUE(snapshot.occupied(view.index(9, 0, 0)));
+}
+
+TEST(PeakTrim, LevelsReachTheSaturation) {
+  // A post seen from every side saturates; the band its views leave in front of
+  // it all round nears the limit it would have had at 64 units. Levels that stop
+  // at 64 units read that halo as the post's equal; levels up to the saturation
+  // (128 units here) leave it out.
+  MapConfig config;
+  EXPECT_EQ(coarse_level_step(config), kMinLevelStep) << "64 units: a quarter unit a level";
+  config.saturation_units = 128.0;
+  EXPECT_EQ(coarse_level_step(config), 32);
+  config.saturation_units = 500.0;
+  EXPECT_EQ(coarse_level_step(config), 125);
+  config.saturation_units = 128.0;
+
+  const std::array<int, 3> dims{12, 12, 3};
+  std::vector<FusedCell> cells(12 * 12 * 3, 0);
+  ZoneView view{{0, 0, 0}, {0, 0, 0}, dims, cells.data()};
+  for (int z = 0; z < 3; ++z)
+    for (int y = 4; y <= 7; ++y)
+      for (int x = 4; x <= 7; ++x) {
+        const bool post = x >= 5 && x <= 6 && y >= 5 && y <= 6;
+        cells[view.index(x, y, z)] = static_cast<FusedCell>(post ? 128 * 64 : 60 * 64);
+      }
+  const int step = coarse_level_step(config);
+  const PeakTrim trim(dims, 0.5, 3, step);
+  ZoneSnapshot snapshot(dims, step);
+  snapshot.capture(view, 96, &trim);
+  EXPECT_TRUE(snapshot.occupied(view.index(5, 5, 1)));
+  EXPECT_FALSE(snapshot.occupied(view.index(4, 5, 1))) << "60 of 128 units: the halo";
+  EXPECT_EQ(snapshot.level(view.index(5, 5, 1)), 255);
+
+  const PeakTrim clipped(dims, 0.5, 3, kMinLevelStep);
+  ZoneSnapshot clipped_snapshot(dims);
+  clipped_snapshot.capture(view, 96, &clipped);
+  EXPECT_TRUE(clipped_snapshot.occupied(view.index(4, 5, 1)))
+      << "levels clipped at 64 units: 60 reads as the post's equal";
 }
 
 }  // namespace

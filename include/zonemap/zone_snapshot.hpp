@@ -25,10 +25,10 @@ namespace zonemap {
 // fused value within radius_xy cells in x and y and one cell in z (a halo is
 // weaker than the surface it surrounds). fraction 0: every occupied cell.
 // Scratch for one capturing thread: three planes of x-y maxima and one pass
-// plane, as coarse levels (value / 16); reserved at construction.
+// plane, as coarse levels (value / level_step); reserved at construction.
 class PeakTrim {
  public:
-  PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy);
+  PeakTrim(const std::array<int, 3>& dims, double fraction, int radius_xy, int level_step);
 
   bool enabled() const { return fraction_256_ > 0; }
   // Clears the bits (cell i: bit i % 64 of word i / 64) of the occupied cells of
@@ -42,6 +42,7 @@ class PeakTrim {
   std::array<int, 3> dims_;
   int fraction_256_;  // fraction in 1/256
   int radius_;
+  int level_step_;
   std::unique_ptr<std::uint8_t[]>
       planes_;  // three planes (z - 1, z, z + 1 by z % 3), then the pass plane
 };
@@ -49,19 +50,26 @@ class PeakTrim {
 // The trim a configuration names (features.peak_fraction, peak_window_m).
 PeakTrim make_peak_trim(const MapConfig& config);
 
+// Fused values as coarse levels (0..255) for the trim and the split: a quarter
+// sensor-model unit a level, coarser where the saturation would not fit in 255
+// of them. A saturated surface reads as its limit: had the levels stopped short
+// of it, a halo near saturation would read as the surface's equal.
+inline constexpr int kMinLevelStep = 16;  // fixed-point units: a quarter sensor-model unit
+int coarse_level_step(const MapConfig& config);
+
 class ZoneSnapshot {
  public:
-  explicit ZoneSnapshot(const std::array<int, 3>& dims);
+  explicit ZoneSnapshot(const std::array<int, 3>& dims, int level_step = kMinLevelStep);
 
   // Copies what extraction needs of `zone` (same dims) at this instant; with
   // `trim`, only the occupied cells it keeps.
   void capture(const ZoneView& zone, FusedCell occupied_threshold, const PeakTrim* trim = nullptr);
 
   bool occupied(std::size_t i) const { return (occupied_[i >> 6] >> (i & 63)) & 1u; }
-  // The fused value of an occupied cell, coarsely (value / kLevelStep, at most
+  // The fused value of an occupied cell, coarsely (value / level_step(), at most
   // 255), for splitting objects that touch; 0 when the zone held more occupied
   // cells than the snapshot keeps levels for (levels_complete() is then false).
-  static constexpr int kLevelStep = 16;  // fixed-point units: a quarter sensor-model unit
+  int level_step() const { return level_step_; }
   std::uint8_t level(std::size_t i) const {
     const std::size_t w = i >> 6;
     const std::uint64_t below = occupied_[w] & ((std::uint64_t{1} << (i & 63)) - 1u);
@@ -94,6 +102,7 @@ class ZoneSnapshot {
   void capture_levels(const FusedCell* cells);
   std::array<int, 3> dims_;
   std::size_t cells_;
+  int level_step_;
   ZoneKey key_;
   CellIndex origin_;
   std::unique_ptr<std::uint64_t[]> occupied_;

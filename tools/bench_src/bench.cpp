@@ -661,7 +661,7 @@ BENCHMARK(BM_FeatureExtractionZone)->Unit(benchmark::kMillisecond);
 void BM_ZoneSnapshotCapture(benchmark::State& state) {
   MapConfig config;
   const std::unique_ptr<Mapper> mapper = mapped_flight2(&config);
-  ZoneSnapshot snapshot(config.zone_cells);
+  ZoneSnapshot snapshot(config.zone_cells, coarse_level_step(config));
   for (auto _ : state) {
     mapper->zones().for_each_live_zone([&](ZoneView& zone) { snapshot.capture(zone, 96); });
     benchmark::ClobberMemory();

@@ -82,5 +82,22 @@ TEST(Evaluate, AMovingObjectCountsWhereItEndsAndItsOldPlaceIsAFalseBox) {
   EXPECT_TRUE(e.objects[1].moving);
 }
 
+TEST(Evaluate, ATopNeverSeenCountsInZCoverageAndApartInTheSeenShare) {
+  // A tree 16.9 m tall flown at 15.1 m by a camera pitched down by half its field of
+  // view: nothing above 15.1 m was ever in view, and the box stops at 15 m.
+  TruthObject tree = box_object("tree", {0, 0, 0}, {4, 4, 16.9});
+  tree.seen_top_z = 15.1;
+  const TruthObject post = box_object("post", {10, 0, 0}, {11, 1, 5});  // no seen_top_z given
+  const std::vector<RunBox> boxes = {obstacle(1, {0, 0, 0}, {4, 4, 15.0}),
+                                     obstacle(2, {10, 0, 0}, {11, 1, 4.0})};
+  const Evaluation e = evaluate({tree, post}, boxes, 0.5);
+  EXPECT_NEAR(e.objects[0].z_coverage, 15.0 / 16.9, 1e-9) << "the plain share stays as it is";
+  EXPECT_NEAR(e.objects[0].z_coverage_seen, 15.0 / 15.1, 1e-9);
+  EXPECT_NEAR(e.objects[1].z_coverage, 0.8, 1e-9);
+  EXPECT_NEAR(e.objects[1].z_coverage_seen, 0.8, 1e-9) << "not given: the whole height";
+  EXPECT_NEAR(e.z_coverage_min, 0.8, 1e-9);
+  EXPECT_NEAR(e.z_coverage_seen_min, 0.8, 1e-9);
+}
+
 }  // namespace
 }  // namespace zonemap::tools

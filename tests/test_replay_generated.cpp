@@ -343,6 +343,30 @@ TEST(ReplayTumLayout, MapsLikeTheSameFlightInMillimetres) {
 namespace zonemap {
 namespace {
 
+TEST(Simulator, SightingsGiveTheHighestPointSeen) {
+  // A tree 17 m tall 30 m ahead of a camera at 15 m: pitched down by half the
+  // vertical field of view (20 deg) it never sees above its own height; level, it
+  // sees the top.
+  sim::Scene scene;
+  scene.cylinders.push_back({"tree", {30.0, 0.0}, 2.0, 0.0, 17.0});
+  const CameraModel camera = sim::paper_camera(320);
+  const std::size_t pixels = static_cast<std::size_t>(camera.width) * camera.height;
+  std::vector<std::uint16_t> depth(pixels);
+  std::vector<std::uint8_t> left(pixels);
+  const double half_fov = std::atan2(camera.height / 2.0, camera.fy);
+  sim::Rng rng(3);
+  sim::ObjectSightings down(1), level(1);
+  sim::render(scene, camera, sim::look_pose({0, 0, 15}, 0.0, half_fov), sim::RenderOptions{}, rng,
+              depth.data(), left.data(), &down);
+  sim::render(scene, camera, sim::look_pose({0, 0, 15}, 0.0, 0.0), sim::RenderOptions{}, rng,
+              depth.data(), left.data(), &level);
+  EXPECT_GT(down.pixel_hits[0], 1000);
+  EXPECT_LE(down.top_z[0], 15.05);
+  EXPECT_GT(down.top_z[0], 14.0);
+  EXPECT_GT(level.top_z[0], 16.8);
+  EXPECT_LE(level.top_z[0], 17.0);
+}
+
 TEST(Simulator, GenerationIsDeterministicForASeed) {
   sim::Scenario scenario;
   std::string error;

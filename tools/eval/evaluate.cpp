@@ -54,6 +54,7 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
         throw YAML::Exception(o.Mark(), "unknown object type '" + type + "'");
       }
       if (o["pixel_hits"]) t.pixel_hits = o["pixel_hits"].as<std::int64_t>();
+      if (o["seen_top_z"]) t.seen_top_z = o["seen_top_z"].as<double>();
       t.moving = o["moving"].as<bool>(false);
       objects->push_back(t);
     }
@@ -62,6 +63,9 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
     return false;
   } catch (const YAML::Exception& e) {
     *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    return false;
+  } catch (const std::exception& e) {  // a directory: std::ios_base::failure
+    *error = path + ": cannot read (" + e.what() + ")";
     return false;
   }
   return true;
@@ -151,12 +155,19 @@ std::vector<const RunBox*> boxes_of(const TruthObject& o, const std::vector<RunB
   return overlapping.empty() ? near : overlapping;
 }
 
+// The share of [lo, hi] that [box_lo, box_hi] covers (1 for no height).
+double height_share(double lo, double hi, double box_lo, double box_hi) {
+  const double height = hi - lo;
+  const double covered = std::min(hi, box_hi) - std::max(lo, box_lo);
+  return height > 0.0 ? std::clamp(covered / height, 0.0, 1.0) : 1.0;
+}
+
 }  // namespace
 
 Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<RunBox>& boxes,
                     double tolerance_m) {
   Evaluation e;
-  std::vector<double> excess, coverage;
+  std::vector<double> excess, coverage, coverage_seen;
   int separated = 0;
   for (const TruthObject& o : objects) {
     ObjectResult r;
@@ -192,10 +203,10 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
       r.separated = !swallows_another;
       r.excess_m = std::max({o.min.x() - union_min.x(), union_max.x() - o.max.x(),
                              o.min.y() - union_min.y(), union_max.y() - o.max.y(), 0.0});
-      const double height = o.max.z() - o.min.z();
-      const double covered =
-          std::min(o.max.z(), union_max.z()) - std::max(o.min.z(), union_min.z());
-      r.z_coverage = height > 0.0 ? std::clamp(covered / height, 0.0, 1.0) : 1.0;
+      r.z_coverage = height_share(o.min.z(), o.max.z(), union_min.z(), union_max.z());
+      const double seen_top =
+          std::isnan(o.seen_top_z) ? o.max.z() : std::clamp(o.seen_top_z, o.min.z(), o.max.z());
+      r.z_coverage_seen = height_share(o.min.z(), seen_top, union_min.z(), union_max.z());
     }
     if (r.moving) {
       ++e.moving_objects;
@@ -206,6 +217,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
         separated += r.separated ? 1 : 0;
         excess.push_back(r.excess_m);
         coverage.push_back(r.z_coverage);
+        coverage_seen.push_back(r.z_coverage_seen);
       }
     }
     e.objects.push_back(r);
@@ -232,6 +244,9 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
   e.purity = area > 0.0 ? pure / area : 1.0;
   e.z_coverage_median = median(coverage);
   e.z_coverage_min = coverage.empty() ? 0.0 : *std::min_element(coverage.begin(), coverage.end());
+  e.z_coverage_seen_median = median(coverage_seen);
+  e.z_coverage_seen_min =
+      coverage_seen.empty() ? 0.0 : *std::min_element(coverage_seen.begin(), coverage_seen.end());
   return e;
 }
 
@@ -249,6 +264,8 @@ std::string to_json(const Evaluation& e) {
       << ",\n  \"purity\": " << e.purity
       << ",\n  \"z_coverage\": {\"median\": " << e.z_coverage_median
       << ", \"min\": " << e.z_coverage_min << "}"
+      << ",\n  \"z_coverage_seen\": {\"median\": " << e.z_coverage_seen_median
+      << ", \"min\": " << e.z_coverage_seen_min << "}"
       << ",\n  \"false_boxes\": " << e.boxes_touching_no_object << ",\n  \"objects\": [";
   for (std::size_t i = 0; i < e.objects.size(); ++i) {
     const ObjectResult& r = e.objects[i];
@@ -256,11 +273,12 @@ std::string to_json(const Evaluation& e) {
                   "%s\n    {\"name\": \"%s\", \"seen\": %s, \"moving\": %s, \"detected\": %s, "
                   "\"box_id\": %u, "
                   "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f], \"boxes\": %d, "
-                  "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f}",
+                  "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f, "
+                  "\"z_coverage_seen\": %.3f}",
                   i ? "," : "", r.name.c_str(), r.seen ? "true" : "false",
                   r.moving ? "true" : "false", r.detected ? "true" : "false", r.box_id,
                   r.centre_error_xy_m, r.box_centre.x(), r.box_centre.y(), r.boxes,
-                  r.separated ? "true" : "false", r.excess_m, r.z_coverage);
+                  r.separated ? "true" : "false", r.excess_m, r.z_coverage, r.z_coverage_seen);
     out << buf;
   }
   out << "\n  ]\n}\n";
@@ -270,24 +288,25 @@ std::string to_json(const Evaluation& e) {
 std::string to_table(const Evaluation& e) {
   std::ostringstream out;
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %7s\n", "object", "seen",
-                "detected", "box", "xy error m", "separate", "excess m", "z cover");
+  std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %7s %7s\n", "object", "seen",
+                "detected", "box", "xy error m", "separate", "excess m", "z cover", "of seen");
   out << buf;
   for (const ObjectResult& r : e.objects) {
-    std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %6.0f%%\n",
+    std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %6.0f%% %6.0f%%\n",
                   r.name.c_str(), r.moving ? "moved" : (r.seen ? "yes" : "no"),
                   r.detected ? "yes" : "NO", r.box_id, r.centre_error_xy_m,
-                  r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m,
-                  100.0 * r.z_coverage);
+                  r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m, 100.0 * r.z_coverage,
+                  100.0 * r.z_coverage_seen);
     out << buf;
   }
   std::snprintf(buf, sizeof(buf),
                 "recall %.1f%% (%d of %d seen); separated %.0f%%; excess median %.2f m, max "
-                "%.2f m; purity %.0f%%; z coverage median %.0f%%, min %.0f%%; %d obstacle boxes, "
-                "%d false (touching no object)\n",
+                "%.2f m; purity %.0f%%; z coverage median %.0f%%, min %.0f%% (of the height seen "
+                "%.0f%%, %.0f%%); %d obstacle boxes, %d false (touching no object)\n",
                 100.0 * e.recall, e.objects_found, e.objects_seen, 100.0 * e.separated,
                 e.excess_median_m, e.excess_max_m, 100.0 * e.purity, 100.0 * e.z_coverage_median,
-                100.0 * e.z_coverage_min, e.obstacle_boxes, e.boxes_touching_no_object);
+                100.0 * e.z_coverage_min, 100.0 * e.z_coverage_seen_median,
+                100.0 * e.z_coverage_seen_min, e.obstacle_boxes, e.boxes_touching_no_object);
   out << buf;
   if (e.moving_objects > 0) {
     std::snprintf(buf, sizeof(buf),

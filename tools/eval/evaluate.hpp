@@ -7,6 +7,7 @@
 // Used by zonemap-eval and by the scenario regression tests.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@ struct TruthObject {
   bool cylinder = false;
   double radius = 0.0;
   std::int64_t pixel_hits = -1;  // objects.yaml's count of depth pixels on it; -1: not given
+  double seen_top_z = NAN;       // objects.yaml's highest point seen on it; NaN: not given
   bool moving = false;           // given where it is at the end of the flight
   // Horizontal distance from (x, y) to the object's footprint (0 inside).
   double distance_xy(double x, double y) const;
@@ -52,6 +54,9 @@ struct ObjectResult {
   bool separated = false;   // none of them overlaps another object >= kSeparationM away
   double excess_m = 0.0;    // how far its boxes' union reaches past its x-y extent (largest side)
   double z_coverage = 0.0;  // share of its height its boxes cover
+  // The same share of the height the camera saw (up to seen_top_z): what a map of
+  // these views could hold. Equal to z_coverage when all of it was in view.
+  double z_coverage_seen = 0.0;
 };
 
 struct Evaluation {
@@ -66,6 +71,7 @@ struct Evaluation {
   double excess_median_m = 0.0, excess_max_m = 0.0;
   double purity = 0.0;  // obstacle-box x-y area within kPurityMarginM of an object / all of it
   double z_coverage_median = 0.0, z_coverage_min = 0.0;
+  double z_coverage_seen_median = 0.0, z_coverage_seen_min = 0.0;
 };
 
 bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* objects,

@@ -150,9 +150,12 @@ double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Is
   return best;  // δ is the z-depth because w has unit optical-axis component
 }
 
+ObjectSightings::ObjectSightings(std::size_t objects)
+    : pixel_hits(objects, 0), top_z(objects, -INFINITY) {}
+
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
             const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
-            std::vector<std::int64_t>* object_hits) {
+            ObjectSightings* sightings) {
   const int w = camera.width;
   const int h = camera.height;
   // Failed matches come in blocks: choose them first.
@@ -188,9 +191,11 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
       } else {
         depth[i] = static_cast<std::uint16_t>(value);
         const double horizontal = (hit - pose.translation()).head<2>().norm();
-        if (object_hits != nullptr && object >= 0 && d <= kSeenRangeM &&
+        if (sightings != nullptr && object >= 0 && d <= kSeenRangeM &&
             horizontal <= kSeenHorizontalM) {
-          ++(*object_hits)[static_cast<std::size_t>(object)];
+          const auto k = static_cast<std::size_t>(object);
+          ++sightings->pixel_hits[k];
+          sightings->top_z[k] = std::max(sightings->top_z[k], hit.z());
         }
       }
     }
@@ -207,8 +212,18 @@ Scene Scene::at(double time_s) const {
   return moved;
 }
 
+namespace {
+// ", seen_top_z: Z" where the object was seen at all.
+std::string seen_top(const ObjectSightings& sightings, std::size_t k) {
+  if (!std::isfinite(sightings.top_z[k])) return "";
+  char text[48];
+  std::snprintf(text, sizeof(text), ", seen_top_z: %.3f", sightings.top_z[k]);
+  return text;
+}
+}  // namespace
+
 bool write_objects_yaml(const std::string& path, const Scene& scene,
-                        const std::vector<std::int64_t>& hits, std::string* error) {
+                        const ObjectSightings& sightings, std::string* error) {
   std::ofstream out(path);
   if (!out) {
     *error = path + ": cannot create";
@@ -220,25 +235,26 @@ bool write_objects_yaml(const std::string& path, const Scene& scene,
         << " (rise per metre of x) from x = " << scene.slope_start_x;
   }
   out << "\nobjects:\n";
-  char line[256];
+  char line[320];
   for (const Cylinder& c : scene.cylinders) {
+    const auto k = static_cast<std::size_t>(&c - scene.cylinders.data());
     std::snprintf(
         line, sizeof(line),
         "  - {name: %s, type: cylinder, center: [%.3f, %.3f], radius: %.3f, z: [%.3f, %.3f], "
-        "pixel_hits: %lld}\n",
+        "pixel_hits: %lld%s}\n",
         c.name.c_str(), c.center.x(), c.center.y(), c.radius, c.z_min, c.z_max,
-        static_cast<long long>(hits[&c - scene.cylinders.data()]));
+        static_cast<long long>(sightings.pixel_hits[k]), seen_top(sightings, k).c_str());
     out << line;
   }
   for (const Box& b : scene.boxes) {
-    std::snprintf(
-        line, sizeof(line),
-        "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f], "
-        "pixel_hits: %lld%s}\n",
-        b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z(),
-        static_cast<long long>(
-            hits[scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data())]),
-        b.moving() ? ", moving: true" : "");
+    const std::size_t k =
+        scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data());
+    std::snprintf(line, sizeof(line),
+                  "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f], "
+                  "pixel_hits: %lld%s%s}\n",
+                  b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z(),
+                  static_cast<long long>(sightings.pixel_hits[k]), seen_top(sightings, k).c_str(),
+                  b.moving() ? ", moving: true" : "");
     out << line;
   }
   if (scene.boxes.empty() && scene.cylinders.empty()) out << "  []\n";
@@ -282,11 +298,11 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
   Rng rng(options.seed);
   char name[64];
   char line[256];
-  std::vector<std::int64_t> hits(scene.cylinders.size() + scene.boxes.size(), 0);
+  ObjectSightings sightings(scene.cylinders.size() + scene.boxes.size());
   for (std::size_t f = 0; f < trajectory.size(); ++f) {
     const TimedPose& p = trajectory[f];
     render(scene.at(p.time_s), camera, p.world_T_camera, options, rng, depth.data(), left.data(),
-           &hits);
+           &sightings);
     std::snprintf(name, sizeof(name), "%06zu.png", f);
     if (!hal::write_png_gray16((fs::path(dir) / "depth" / name).string(), camera.width,
                                camera.height, depth.data(), error) ||
@@ -309,7 +325,7 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
     return false;
   }
   const double end_s = trajectory.empty() ? 0.0 : trajectory.back().time_s;
-  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene.at(end_s), hits,
+  return write_objects_yaml((fs::path(dir) / "objects.yaml").string(), scene.at(end_s), sightings,
                             error);
 }
 

@@ -89,13 +89,22 @@ double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Is
 inline constexpr double kSeenRangeM = 50.0;
 inline constexpr double kSeenHorizontalM = 40.0;
 
+// What the camera saw of each object (one entry per cylinder, then per box) over a
+// flight: the valid depth pixels on it within kSeenRangeM / kSeenHorizontalM, and
+// the highest of those points (world z; -inf: none). An object's top above the
+// camera's view (a tree taller than the flight's altitude, seen from a camera
+// pitched down by half its field of view) is never seen, so never mapped.
+struct ObjectSightings {
+  std::vector<std::int64_t> pixel_hits;
+  std::vector<double> top_z;
+  explicit ObjectSightings(std::size_t objects);
+};
+
 // Renders one frame: depth in units of 1/camera.depth_scale metres (0 = none) and
-// the left intensity image.
-// object_hits (one counter per cylinder, then per box) counts the valid depth pixels
-// on each object within kSeenRangeM / kSeenHorizontalM.
+// the left intensity image; with `sightings`, adds what this frame saw to them.
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
             const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
-            std::vector<std::int64_t>* object_hits = nullptr);
+            ObjectSightings* sightings = nullptr);
 
 // Writes a whole sequence directory (camera.yaml, depth.txt, depth/, left.txt,
 // left/, groundtruth.txt, objects.yaml). Each frame shows the scene at its time;
@@ -104,8 +113,8 @@ bool write_sequence(const std::string& dir, const Scene& scene, const CameraMode
                     const std::vector<TimedPose>& trajectory, const RenderOptions& options,
                     std::string* error);
 
-// hits: pixel_hits per object (cylinders, then boxes), from render().
+// sightings: from render() over the flight (pixel_hits, seen_top_z).
 bool write_objects_yaml(const std::string& path, const Scene& scene,
-                        const std::vector<std::int64_t>& hits, std::string* error);
+                        const ObjectSightings& sightings, std::string* error);
 
 }  // namespace zonemap::sim

@@ -42,7 +42,7 @@ class PeakTrim {
   std::array<int, 3> dims_;
   int fraction_256_;  // fraction in 1/256
   int radius_;
-  int level_step_;
+  int level_shift_;  // levels are value >> level_shift_
   std::unique_ptr<std::uint8_t[]>
       planes_;  // three planes (z - 1, z, z + 1 by z % 3), then the pass plane
 };
@@ -52,7 +52,8 @@ PeakTrim make_peak_trim(const MapConfig& config);
 
 // Fused values as coarse levels (0..255) for the trim and the split: a quarter
 // sensor-model unit a level, coarser where the saturation would not fit in 255
-// of them. A saturated surface reads as its limit: had the levels stopped short
+// of them (a power of two: levels are a shift, which vectorises over a zone's
+// planes). A saturated surface reads as its limit: had the levels stopped short
 // of it, a halo near saturation would read as the surface's equal.
 inline constexpr int kMinLevelStep = 16;  // fixed-point units: a quarter sensor-model unit
 int coarse_level_step(const MapConfig& config);
@@ -69,7 +70,7 @@ class ZoneSnapshot {
   // The fused value of an occupied cell, coarsely (value / level_step(), at most
   // 255), for splitting objects that touch; 0 when the zone held more occupied
   // cells than the snapshot keeps levels for (levels_complete() is then false).
-  int level_step() const { return level_step_; }
+  int level_step() const { return 1 << level_shift_; }
   std::uint8_t level(std::size_t i) const {
     const std::size_t w = i >> 6;
     const std::uint64_t below = occupied_[w] & ((std::uint64_t{1} << (i & 63)) - 1u);
@@ -102,7 +103,7 @@ class ZoneSnapshot {
   void capture_levels(const FusedCell* cells);
   std::array<int, 3> dims_;
   std::size_t cells_;
-  int level_step_;
+  int level_shift_;  // levels are value >> level_shift_
   ZoneKey key_;
   CellIndex origin_;
   std::unique_ptr<std::uint64_t[]> occupied_;

@@ -82,6 +82,18 @@ TEST(Evaluate, AMovingObjectCountsWhereItEndsAndItsOldPlaceIsAFalseBox) {
   EXPECT_TRUE(e.objects[1].moving);
 }
 
+TEST(Evaluate, JsonHoldsEveryObjectWhateverItsNameAndPlace) {
+  // A long name far from the origin: each object's line is whole (it was once cut
+  // at a fixed buffer's end, leaving eval.json unreadable).
+  const std::string name(120, 'n');
+  const std::vector<TruthObject> objects = {
+      box_object(name.c_str(), {-123456, -123456, 0}, {-123455, -123455, 2})};
+  const std::string json =
+      to_json(evaluate(objects, {obstacle(1, {-123456, -123456, 0}, {-123455, -123455, 2})}, 0.5));
+  EXPECT_NE(json.find("\"name\": \"" + name + "\", \"seen\": true"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"z_coverage_seen\": 1.000}\n  ]\n}"), std::string::npos) << json;
+}
+
 TEST(Evaluate, ATopNeverSeenCountsInZCoverageAndApartInTheSeenShare) {
   // A tree 16.9 m tall flown at 15.1 m by a camera pitched down by half its field of
   // view: nothing above 15.1 m was ever in view, and the box stops at 15 m.

@@ -252,7 +252,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
 
 std::string to_json(const Evaluation& e) {
   std::ostringstream out;
-  char buf[256];
+  char buf[512];
   out << "{\n  \"recall\": " << e.recall << ",\n  \"obstacle_boxes\": " << e.obstacle_boxes
       << ",\n  \"boxes_touching_no_object\": " << e.boxes_touching_no_object
       << ",\n  \"false_box_fraction\": " << e.false_box_fraction
@@ -269,16 +269,18 @@ std::string to_json(const Evaluation& e) {
       << ",\n  \"false_boxes\": " << e.boxes_touching_no_object << ",\n  \"objects\": [";
   for (std::size_t i = 0; i < e.objects.size(); ++i) {
     const ObjectResult& r = e.objects[i];
+    // The name goes in apart: objects.yaml's names have no length limit.
+    out << (i ? "," : "") << "\n    {\"name\": \"" << r.name << "\", ";
     std::snprintf(buf, sizeof(buf),
-                  "%s\n    {\"name\": \"%s\", \"seen\": %s, \"moving\": %s, \"detected\": %s, "
+                  "\"seen\": %s, \"moving\": %s, \"detected\": %s, "
                   "\"box_id\": %u, "
                   "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f], \"boxes\": %d, "
                   "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f, "
                   "\"z_coverage_seen\": %.3f}",
-                  i ? "," : "", r.name.c_str(), r.seen ? "true" : "false",
-                  r.moving ? "true" : "false", r.detected ? "true" : "false", r.box_id,
-                  r.centre_error_xy_m, r.box_centre.x(), r.box_centre.y(), r.boxes,
-                  r.separated ? "true" : "false", r.excess_m, r.z_coverage, r.z_coverage_seen);
+                  r.seen ? "true" : "false", r.moving ? "true" : "false",
+                  r.detected ? "true" : "false", r.box_id, r.centre_error_xy_m, r.box_centre.x(),
+                  r.box_centre.y(), r.boxes, r.separated ? "true" : "false", r.excess_m,
+                  r.z_coverage, r.z_coverage_seen);
     out << buf;
   }
   out << "\n  ]\n}\n";
@@ -287,7 +289,7 @@ std::string to_json(const Evaluation& e) {
 
 std::string to_table(const Evaluation& e) {
   std::ostringstream out;
-  char buf[256];
+  char buf[512];
   std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %7s %7s\n", "object", "seen",
                 "detected", "box", "xy error m", "separate", "excess m", "z cover", "of seen");
   out << buf;

@@ -59,14 +59,27 @@ using I16x8 = std::int16_t __attribute__((vector_size(16)));
 using F32x8 = float __attribute__((vector_size(32)));
 using I32x8 = std::int32_t __attribute__((vector_size(32)));
 
-// Eight centres at once: each tap within its centre's gate (a measurement,
-// |tap - centre| <= gate) adds tap - centre to the sum and one to the count.
-// Sums stay within 16 bits: the gate is at most 32767 / (2r + 1) codes.
-inline void accumulate(U16x8 centre, U16x8 gate, U16x8 tap, I16x8* sum, I16x8* count) {
-  const U16x8 distance = simd::saturating_sub(tap, centre) | simd::saturating_sub(centre, tap);
-  const I16x8 take = (simd::min_u16(distance, gate) == distance) & (tap != U16x8{});
-  *sum += reinterpret_cast<I16x8>(tap - centre) & take;
-  *count -= take;
+// Eight centres at once. A tap is taken when it lies in its centre's window
+// [lo, hi] = [max(centre - gate, 1), centre + gate] (saturated): a measurement
+// within the gate, as |tap - centre| <= gate && tap != 0 says, in three
+// instructions. Taken taps are summed modulo 2^16; the sum of their differences
+// from the centre (at most 2r gates < 32768) comes out exact in diff_sum.
+struct Lanes8 {
+  U16x8 centre, lo, hi;
+  U16x8 sum;    // the centre (it takes itself) and the taps taken, modulo 2^16
+  I16x8 count;  // 1 + the taps taken
+};
+inline Lanes8 start_lanes(U16x8 centre, U16x8 gate) {
+  const U16x8 lo = simd::max_u16(simd::saturating_sub(centre, gate), simd::splat_u16(1));
+  return {centre, lo, simd::saturating_add(centre, gate), centre, I16x8{} + 1};
+}
+inline void take(Lanes8* lanes, U16x8 tap) {
+  const I16x8 taken = simd::max_u16(simd::min_u16(tap, lanes->hi), lanes->lo) == tap;
+  lanes->sum += tap & reinterpret_cast<U16x8>(taken);
+  lanes->count -= taken;
+}
+inline I16x8 diff_sum(const Lanes8& lanes) {
+  return reinterpret_cast<I16x8>(lanes.sum - lanes.centre * reinterpret_cast<U16x8>(lanes.count));
 }
 
 // The same for one centre (the row's ends).
@@ -101,17 +114,89 @@ inline std::uint16_t mean_of(std::uint16_t centre, std::int32_t sum, std::int32_
   const int step = static_cast<int>(mean + 32768.5f) - 32768;
   return centre == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(centre + step);
 }
-inline U16x8 mean_of(U16x8 centre, I16x8 sum, I16x8 count) {
-  const I16x8 missing = centre == U16x8{};  // count 0 there: divide by 1 instead
-  const F32x8 n = __builtin_convertvector(count - missing, F32x8);
-  const F32x8 mean = __builtin_convertvector(sum, F32x8) / n;
+inline U16x8 mean_of(const Lanes8& lanes) {  // count >= 1 in every lane
+  const F32x8 n = __builtin_convertvector(lanes.count, F32x8);
+  const F32x8 mean = __builtin_convertvector(diff_sum(lanes), F32x8) / n;
   const I32x8 step = __builtin_convertvector(mean + 32768.5f, I32x8) - 32768;
-  const U16x8 out = centre + __builtin_convertvector(step, U16x8);
+  const U16x8 out = lanes.centre + __builtin_convertvector(step, U16x8);
+  const I16x8 missing = lanes.centre == U16x8{};
   return reinterpret_cast<U16x8>(reinterpret_cast<I16x8>(out) & ~missing);
 }
 
 inline void store_u16(std::uint16_t* p, U16x8 v) {
   std::memcpy(p, &v, sizeof v);
+}
+
+}  // namespace
+
+namespace {
+
+// Rows: eight centres at a time, their 2R other taps beside them in the row,
+// from u while all of them lie in it; returns the first centre not done.
+template <int R>
+int row_lanes(const std::uint16_t* in, std::uint16_t* out, int u, int w, float gate_per_code2,
+              U16x8 centre_cap, U16x8 cap) {
+  for (; u + 8 + R <= w; u += 8) {
+    const U16x8 centre = simd::load_u16(in + u);
+    Lanes8 lanes = start_lanes(centre, gate_of(centre, gate_per_code2, centre_cap, cap));
+    for (int k = 1; k <= R; ++k) {
+      take(&lanes, simd::load_u16(in + u - k));
+      take(&lanes, simd::load_u16(in + u + k));
+    }
+    store_u16(out + u, mean_of(lanes));
+  }
+  return u;
+}
+
+// Columns: eight centres at a time with `count` other rows' taps (R of them on
+// either side inside the frame; count <= 2R at its top and bottom); returns
+// the first centre not done.
+template <int R>
+int column_lanes(const std::uint16_t* centre_row, const std::uint16_t* const* taps, int count,
+                 std::uint16_t* out, int w, float gate_per_code2, U16x8 centre_cap, U16x8 cap) {
+  int u = 0;
+  const auto lanes_at = [&](int at) {
+    const U16x8 centre = simd::load_u16(centre_row + at);
+    return start_lanes(centre, gate_of(centre, gate_per_code2, centre_cap, cap));
+  };
+  if (count == 2 * R) {  // the frame's inner rows: every tap, unrolled
+    for (; u + 8 <= w; u += 8) {
+      Lanes8 lanes = lanes_at(u);
+      for (int t = 0; t < 2 * R; ++t) take(&lanes, simd::load_u16(taps[t] + u));
+      store_u16(out + u, mean_of(lanes));
+    }
+  } else {
+    for (; u + 8 <= w; u += 8) {
+      Lanes8 lanes = lanes_at(u);
+      for (int t = 0; t < count; ++t) take(&lanes, simd::load_u16(taps[t] + u));
+      store_u16(out + u, mean_of(lanes));
+    }
+  }
+  return u;
+}
+
+// The radius as a constant (the tap loops unroll): f.template operator()<R>().
+template <class F>
+int with_radius(int radius, F&& f) {
+  static_assert(kMaxDepthFilterRadius == 8, "one case a radius");
+  switch (radius) {
+    case 1:
+      return f.template operator()<1>();
+    case 2:
+      return f.template operator()<2>();
+    case 3:
+      return f.template operator()<3>();
+    case 4:
+      return f.template operator()<4>();
+    case 5:
+      return f.template operator()<5>();
+    case 6:
+      return f.template operator()<6>();
+    case 7:
+      return f.template operator()<7>();
+    default:
+      return f.template operator()<8>();
+  }
 }
 
 }  // namespace
@@ -133,14 +218,8 @@ void DepthFilter::filter_along_row(const std::uint16_t* in, std::uint16_t* out) 
   };
   int u = 0;
   for (; u < std::min(r, w); ++u) one(u);
-  for (; u + 8 + r <= w; u += 8) {
-    const U16x8 centre = simd::load_u16(in + u);
-    const U16x8 gate = gate_of(centre, gate_per_code2_, centre_cap, cap);
-    I16x8 sum{}, count{};
-    for (int k = -r; k <= r; ++k)
-      accumulate(centre, gate, simd::load_u16(in + u + k), &sum, &count);
-    store_u16(out + u, mean_of(centre, sum, count));
-  }
+  u = with_radius(
+      r, [&]<int R>() { return row_lanes<R>(in, out, u, w, gate_per_code2_, centre_cap, cap); });
   for (; u < w; ++u) one(u);
 }
 
@@ -151,23 +230,20 @@ void DepthFilter::filter_along_column(int v, std::uint16_t* out) const {
   const int last = std::min(height_ - 1, v + radius_);
   const U16x8 cap = simd::splat_u16(static_cast<std::uint16_t>(gate_cap_));
   const U16x8 centre_cap = simd::splat_u16(centre_cap_);
-  const std::uint16_t* taps[2 * kMaxDepthFilterRadius + 1];
-  const int tap_rows = last - first + 1;
-  for (int t = 0; t < tap_rows; ++t) taps[t] = ring_row(first + t);
-  int u = 0;
-  for (; u + 8 <= w; u += 8) {
-    const U16x8 c = simd::load_u16(centre + u);
-    const U16x8 gate = gate_of(c, gate_per_code2_, centre_cap, cap);
-    I16x8 sum{}, count{};
-    for (int t = 0; t < tap_rows; ++t)
-      accumulate(c, gate, simd::load_u16(taps[t] + u), &sum, &count);
-    store_u16(out + u, mean_of(c, sum, count));
+  // The other rows (the centre takes itself).
+  const std::uint16_t* taps[2 * kMaxDepthFilterRadius];
+  int count = 0;
+  for (int row = first; row <= last; ++row) {
+    if (row != v) taps[count++] = ring_row(row);
   }
+  int u = with_radius(radius_, [&]<int R>() {
+    return column_lanes<R>(centre, taps, count, out, w, gate_per_code2_, centre_cap, cap);
+  });
   for (; u < w; ++u) {
     const std::uint16_t gate = gate_of(centre[u], gate_per_code2_, gate_cap_);
-    std::int32_t sum = 0, count = 0;
-    for (int t = 0; t < tap_rows; ++t) accumulate(centre[u], gate, taps[t][u], &sum, &count);
-    out[u] = mean_of(centre[u], sum, count);
+    std::int32_t sum = 0, n = 1;  // the centre takes itself: difference 0
+    for (int t = 0; t < count; ++t) accumulate(centre[u], gate, taps[t][u], &sum, &n);
+    out[u] = mean_of(centre[u], sum, n);
   }
 }
 

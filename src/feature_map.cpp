@@ -86,7 +86,7 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       band_tables_(new std::int32_t[band_table_size(config) *
                                     static_cast<std::size_t>(ground_band_cells_ + 1)]()),
       column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
-      window_line_(new std::int16_t[window_line_size()]()),
+      window_buffer_(new std::int16_t[window_buffer_size()]()),
       coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       observed_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
       parent_(new std::uint32_t[capacity_]()),
@@ -130,7 +130,7 @@ std::size_t FeatureMap::reserved_bytes() const {
          (3 * kMaxCores + 1) * sizeof(std::size_t) + columns * sizeof(std::uint32_t) +
          kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes() +
          trim_.reserved_bytes() + columns * 3 * sizeof(std::int16_t) +
-         window_line_size() * sizeof(std::int16_t) +
+         window_buffer_size() * sizeof(std::int16_t) +
          static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * (ground_band_cells_ + 1) *
              sizeof(std::int32_t);
 }
@@ -300,19 +300,12 @@ int FeatureMap::band_quantile(int x, int y, double fraction) const {
 
 void FeatureMap::window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp,
                             int r) const {
-  // Separable: along x into tmp, then along y into out. kNoHeight entries are
-  // left out (as the largest value); a window with none else gives kNoHeight.
-  const int nx = dims_[0];
-  const int ny = dims_[1];
+  // kNoHeight entries are left out (as the largest value); a window with none
+  // else gives kNoHeight.
   const std::int16_t none = INT16_MAX;
-  const std::size_t columns = static_cast<std::size_t>(nx) * ny;
-  for (std::size_t c = 0; c < columns; ++c) out[c] = values[c] == kNoHeight ? none : values[c];
-  std::int16_t* line = window_line_.get();
-  for (int y = 0; y < ny; ++y) {
-    const std::size_t row = static_cast<std::size_t>(y) * nx;
-    running_min(out + row, tmp + row, nx, 1, r, none, line);
-  }
-  for (int x = 0; x < nx; ++x) running_min(tmp + x, out + x, ny, nx, r, none, line);
+  const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
+  for (std::size_t c = 0; c < columns; ++c) tmp[c] = values[c] == kNoHeight ? none : values[c];
+  window_min_plane(tmp, out, dims_[0], dims_[1], r, none, window_buffer_.get());
   for (std::size_t c = 0; c < columns; ++c) {
     if (out[c] == none) out[c] = kNoHeight;
   }

@@ -57,6 +57,32 @@ inline U16x8 min_u16(U16x8 a, U16x8 b) {
 #endif
 }
 
+inline U16x8 max_u16(U16x8 a, U16x8 b) {
+#if defined(__SSE4_1__)
+  return reinterpret_cast<U16x8>(
+      _mm_max_epu16(reinterpret_cast<__m128i>(a), reinterpret_cast<__m128i>(b)));
+#elif defined(__ARM_NEON)
+  return reinterpret_cast<U16x8>(
+      vmaxq_u16(reinterpret_cast<uint16x8_t>(a), reinterpret_cast<uint16x8_t>(b)));
+#else
+  return b + saturating_sub(a, b);
+#endif
+}
+
+// min(a + b, 65535) per lane.
+inline U16x8 saturating_add(U16x8 a, U16x8 b) {
+#if defined(__SSE2__)
+  return reinterpret_cast<U16x8>(
+      _mm_adds_epu16(reinterpret_cast<__m128i>(a), reinterpret_cast<__m128i>(b)));
+#elif defined(__ARM_NEON)
+  return reinterpret_cast<U16x8>(
+      vqaddq_u16(reinterpret_cast<uint16x8_t>(a), reinterpret_cast<uint16x8_t>(b)));
+#else
+  const U16x8 sum = a + b;
+  return sum < a ? U16x8{} - 1 : sum;
+#endif
+}
+
 // True when any lane is non-zero.
 inline bool any_u16(U16x8 v) {
   std::uint64_t halves[2];

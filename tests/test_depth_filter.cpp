@@ -22,7 +22,8 @@ constexpr int kH = 48;
 
 std::uint16_t noisy(sim::Rng& rng, double depth_m) {
   const double sigma = depth_m * depth_m * 0.25 / (0.30 * 671.0);  // eq. (1)
-  return static_cast<std::uint16_t>(std::lround((depth_m + sigma * rng.gaussian()) * 1000.0));
+  const long code = std::lround((depth_m + sigma * rng.gaussian()) * 1000.0);
+  return static_cast<std::uint16_t>(std::clamp(code, 1L, 65535L));
 }
 
 std::vector<std::uint16_t> filtered(DepthFilter& filter, const std::vector<std::uint16_t>& depth) {
@@ -114,16 +115,17 @@ std::vector<std::uint16_t> reference(const std::vector<std::uint16_t>& depth, in
 }
 
 TEST(DepthFilter, EightLanesAtATimeAreTheDefinition) {
-  // Widths that leave ends the lanes do not cover, holes, near and far depths and
-  // depths whose gate reaches the cap (62 m: 2 Δd 9.5 m, the cap at r = 2 6.5 m).
-  const double kDepths[3] = {12.0, 45.0, 62.0};
+  // Widths that leave ends the lanes do not cover, holes, near and far depths,
+  // depths whose gate reaches the cap (62 m: 2 Δd 9.5 m, the cap at r = 2 6.5 m)
+  // and depths at the top of the codes (64 m: windows past 65535), every radius.
+  const double kDepths[4] = {12.0, 45.0, 62.0, 64.0};
   sim::Rng rng(21);
   for (const int w : {61, 64, 9}) {
-    for (const int r : {1, 2, 3}) {
+    for (int r = 1; r <= kMaxDepthFilterRadius; ++r) {
       const int h = 23;
       std::vector<std::uint16_t> depth(static_cast<std::size_t>(w) * h);
       for (auto& d : depth) {
-        d = rng.uniform() < 0.15 ? 0 : noisy(rng, kDepths[static_cast<int>(rng.uniform() * 3)]);
+        d = rng.uniform() < 0.15 ? 0 : noisy(rng, kDepths[static_cast<int>(rng.uniform() * 4)]);
       }
       DepthFilter filter(w, h, r, kResolutionPerCode2);
       filter.begin(depth.data());

@@ -17,7 +17,7 @@
 #include "zonemap/cell.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/quadtree.hpp"
-#include "zonemap/running_min.hpp"
+#include "zonemap/window_min.hpp"
 #include "zonemap/zone_map.hpp"
 #include "zonemap/zone_snapshot.hpp"
 
@@ -274,12 +274,11 @@ class FeatureMap : public ZoneObserver {
   // whose clipped run height above the terrain is at least k.
   std::unique_ptr<std::int32_t[]> band_tables_;
   std::unique_ptr<std::int16_t[]> column_tmp_;
-  // window_min's line buffers: a line padded by the widest radius (3 windows),
-  // its block prefixes and suffixes.
-  std::size_t window_line_size() const {
-    return running_min_line_size(std::max(dims_[0], dims_[1]), 3 * ground_window_cells_);
+  // window_min's buffer, for the widest radius (3 windows).
+  std::size_t window_buffer_size() const {
+    return window_min_buffer_size(dims_[0], dims_[1], 3 * ground_window_cells_);
   }
-  std::unique_ptr<std::int16_t[]> window_line_;
+  std::unique_ptr<std::int16_t[]> window_buffer_;
   std::unique_ptr<std::int32_t[]> coverage_;     // (nx + 1) * (ny + 1) summed-area table
   std::unique_ptr<std::int32_t[]> observed_;     // the same for columns with any known cell
   std::unique_ptr<std::uint32_t[]> parent_;      // union-find for merging, per feature

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
+
+#include "simd_u16.hpp"
 
 namespace zonemap {
 namespace {
@@ -83,8 +86,8 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       terrain_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       run_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       ground_top_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
-      band_tables_(new std::int32_t[band_table_size(config) *
-                                    static_cast<std::size_t>(ground_band_cells_ + 1)]()),
+      band_tables_(
+          new std::uint16_t[band_table_size(config) * static_cast<std::size_t>(band_lanes())]()),
       column_tmp_(new std::int16_t[static_cast<std::size_t>(dims_[0]) * dims_[1]]()),
       window_buffer_(new std::int16_t[window_buffer_size()]()),
       coverage_(new std::int32_t[static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1)]()),
@@ -131,8 +134,8 @@ std::size_t FeatureMap::reserved_bytes() const {
          kMaxCores * (sizeof(RegionBox) + sizeof(std::uint16_t)) + scratch_.reserved_bytes() +
          trim_.reserved_bytes() + columns * 3 * sizeof(std::int16_t) +
          window_buffer_size() * sizeof(std::int16_t) +
-         static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * (ground_band_cells_ + 1) *
-             sizeof(std::int32_t);
+         static_cast<std::size_t>(dims_[0] + 1) * (dims_[1] + 1) * band_lanes() *
+             sizeof(std::uint16_t);
 }
 
 std::size_t FeatureMap::count(FeatureKind kind) const {
@@ -237,22 +240,31 @@ void FeatureMap::compute_ground_top() {
   const std::size_t columns = static_cast<std::size_t>(nx) * ny;
   const int band = ground_band_cells_;
   const std::size_t stride = static_cast<std::size_t>(nx + 1);
-  const std::size_t table = stride * static_cast<std::size_t>(ny + 1);
-  // One summed-area table per band height k: columns whose run reaches k cells
-  // above their terrain (clipped to the band; k = 0: every column with a run).
-  for (int k = 0; band > 0 && k <= band; ++k) {
-    std::int32_t* sat = band_tables_.get() + static_cast<std::size_t>(k) * table;
-    std::fill_n(sat, stride, 0);
+  // The summed-area tables of every band height k at once (band_tables_): a
+  // column adds one to lane k when its run reaches k cells above its terrain
+  // (clipped to the band; k = 0: every column with a run).
+  const int lanes = band_lanes();
+  if (band > 0) {
+    std::uint16_t* sat = band_tables_.get();
+    std::fill_n(sat, stride * static_cast<std::size_t>(lanes), std::uint16_t{0});
     for (int y = 0; y < ny; ++y) {
-      std::int32_t row = 0;
-      sat[static_cast<std::size_t>(y + 1) * stride] = 0;
-      for (int x = 0; x < nx; ++x) {
-        const std::size_t c = static_cast<std::size_t>(y) * nx + x;
-        const bool reaches = terrain_[c] != kNoHeight && run_top_[c] != kNoHeight &&
-                             std::min(run_top_[c] - terrain_[c], band) >= k;
-        row += reaches ? 1 : 0;
-        const std::size_t at = static_cast<std::size_t>(y + 1) * stride + x + 1;
-        sat[at] = sat[at - stride] + row;
+      std::uint16_t* const row_sat = sat + static_cast<std::size_t>(y + 1) * stride * lanes;
+      std::fill_n(row_sat, lanes, std::uint16_t{0});
+      for (int group = 0; group < lanes; group += 8) {
+        const simd::I16x8 k =
+            simd::I16x8{0, 1, 2, 3, 4, 5, 6, 7} + static_cast<std::int16_t>(group);
+        simd::U16x8 row{};
+        for (int x = 0; x < nx; ++x) {
+          const std::size_t c = static_cast<std::size_t>(y) * nx + x;
+          const bool has_run = terrain_[c] != kNoHeight && run_top_[c] != kNoHeight;
+          const auto height =
+              static_cast<std::int16_t>(has_run ? std::min(run_top_[c] - terrain_[c], band) : -1);
+          row -= reinterpret_cast<simd::U16x8>(simd::I16x8{} + height >= k);
+          std::uint16_t* at = row_sat + static_cast<std::size_t>(x + 1) * lanes + group;
+          const simd::U16x8 above = simd::load_u16(at - stride * lanes);
+          const simd::U16x8 sum = above + row;
+          std::memcpy(at, &sum, sizeof sum);
+        }
       }
     }
   }
@@ -282,14 +294,18 @@ int FeatureMap::measured_band(int x, int y) const {
 int FeatureMap::band_quantile(int x, int y, double fraction) const {
   const int r = ground_window_cells_;
   const std::size_t stride = static_cast<std::size_t>(dims_[0] + 1);
-  const std::size_t table = stride * static_cast<std::size_t>(dims_[1] + 1);
   const int x0 = std::max(0, x - r);
   const int x1 = std::min(dims_[0] - 1, x + r);
   const int y0 = std::max(0, y - r);
   const int y1 = std::min(dims_[1] - 1, y + r);
-  auto window_count = [&](int k) {
-    return window_sum(band_tables_.get() + static_cast<std::size_t>(k) * table, stride, x0, y0, x1,
-                      y1);
+  const int lanes = band_lanes();
+  const std::uint16_t* sat = band_tables_.get();
+  const auto entry = [&](int ex, int ey, int k) {
+    return sat[(static_cast<std::size_t>(ey) * stride + static_cast<std::size_t>(ex)) * lanes + k];
+  };
+  auto window_count = [&](int k) {  // below 2^16: exact from the wrapped corners
+    return static_cast<std::uint16_t>(entry(x1 + 1, y1 + 1, k) - entry(x1 + 1, y0, k) -
+                                      entry(x0, y1 + 1, k) + entry(x0, y0, k));
   };
   // The largest k that (1 - fraction) of the window's runs reach.
   const double needed = (1.0 - fraction) * window_count(0);

@@ -83,6 +83,38 @@ inline U16x8 saturating_add(U16x8 a, U16x8 b) {
 #endif
 }
 
+// Sixteen-bit masks (lanes 0 or all ones) of two vectors as sixteen byte masks,
+// a's lanes first (snapshot capture: 16 cells' flags at once).
+using I16x8 = std::int16_t __attribute__((vector_size(16)));
+using U8x16 = std::uint8_t __attribute__((vector_size(16)));
+inline U8x16 narrow_masks(I16x8 a, I16x8 b) {
+#if defined(__SSE2__)
+  return reinterpret_cast<U8x16>(
+      _mm_packs_epi16(reinterpret_cast<__m128i>(a), reinterpret_cast<__m128i>(b)));
+#elif defined(__ARM_NEON)
+  return reinterpret_cast<U8x16>(vcombine_u8(vmovn_u16(reinterpret_cast<uint16x8_t>(a)),
+                                             vmovn_u16(reinterpret_cast<uint16x8_t>(b))));
+#else
+  using U8x16Lanes = std::uint8_t __attribute__((vector_size(16)));
+  return __builtin_shufflevector(reinterpret_cast<U8x16Lanes>(a), reinterpret_cast<U8x16Lanes>(b),
+                                 0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+#endif
+}
+
+// Sixteen byte masks (0 or 0xFF) as the bits of a word, lane 0 the lowest.
+inline std::uint16_t bits_of_masks(U8x16 masks) {
+#if defined(__SSE2__)
+  return static_cast<std::uint16_t>(_mm_movemask_epi8(reinterpret_cast<__m128i>(masks)));
+#else
+  // Bytes b_i in {0, 1}: (x * 0x0102040810204080) >> 56 = sum b_i 2^i, eight at a time.
+  std::uint64_t halves[2];
+  std::memcpy(halves, &masks, sizeof halves);
+  const std::uint64_t ones = 0x0101010101010101ull, spread = 0x0102040810204080ull;
+  return static_cast<std::uint16_t>((((halves[0] & ones) * spread) >> 56) |
+                                    ((((halves[1] & ones) * spread) >> 56) << 8));
+#endif
+}
+
 // True when any lane is non-zero.
 inline bool any_u16(U16x8 v) {
   std::uint64_t halves[2];

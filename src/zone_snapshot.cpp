@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstring>
 
+#include "simd_u16.hpp"
+
 namespace zonemap {
 
-// The bit packing below reads eight flag bytes as one little-endian word.
+// Capture reads lanes and flag bytes as little-endian words.
 static_assert(std::endian::native == std::endian::little);
 
 int coarse_level_step(const MapConfig& config) {
@@ -43,22 +45,6 @@ std::size_t ZoneSnapshot::reserved_bytes() const {
          static_cast<std::size_t>(dims_[0]) * dims_[1];
 }
 
-namespace {
-
-// 64 flag bytes (each 0 or 1) as the bits of one word: for bytes b_i in {0, 1},
-// (x * 0x0102040810204080) >> 56 = sum b_i 2^i, eight at a time.
-std::uint64_t pack_flags(const std::uint8_t* flags) {
-  std::uint64_t word = 0;
-  for (int k = 0; k < 8; ++k) {
-    std::uint64_t x = 0;
-    std::memcpy(&x, flags + 8 * k, 8);
-    word |= ((x * 0x0102040810204080ull) >> 56) << (8 * k);
-  }
-  return word;
-}
-
-}  // namespace
-
 void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold,
                            const PeakTrim* trim) {
   key_ = zone.key;
@@ -68,27 +54,38 @@ void ZoneSnapshot::capture(const ZoneView& zone, FusedCell occupied_threshold,
   std::fill_n(known, columns, std::uint8_t{0});
   const FusedCell* cells = zone.cells;
   // One pass over the cells (a zone is 4 MB at 0.5 m: read once, on the frame
-  // that discards it), 64 at a time: the occupied flags packed into a word, the
-  // non-zero flags OR-ed into their columns (both vectorise).
+  // that discards it), sixteen at a time: the occupied flags as bits of the
+  // word, the non-zero flags OR-ed into their columns.
   const std::size_t full_words = cells_ / 64;
   std::size_t column = 0;  // the column of the word's first cell
+  const simd::I16x8 threshold = simd::I16x8{} + occupied_threshold;
   for (std::size_t w = 0; w < full_words; ++w) {
     const FusedCell* p = cells + w * 64;
-    // 64 flags as bytes (a vectorised compare), then packed into bits.
-    std::uint8_t flags[64];
-    std::uint8_t nonzero[64];
-    for (int b = 0; b < 64; ++b) {
-      flags[b] = static_cast<std::uint8_t>(p[b] > occupied_threshold);
-      nonzero[b] = static_cast<std::uint8_t>(p[b] != 0);
+    std::uint64_t word = 0;
+    simd::U8x16 nonzero[4];
+    for (int q = 0; q < 4; ++q) {
+      simd::I16x8 a, b;
+      std::memcpy(&a, p + 16 * q, sizeof a);
+      std::memcpy(&b, p + 16 * q + 8, sizeof b);
+      word |= std::uint64_t{simd::bits_of_masks(simd::narrow_masks(a > threshold, b > threshold))}
+              << (16 * q);
+      nonzero[q] = simd::narrow_masks(a != simd::I16x8{}, b != simd::I16x8{}) & 1;
     }
-    occupied_[w] = pack_flags(flags);
+    occupied_[w] = word;
     if (column + 64 <= columns) {
-      for (int b = 0; b < 64; ++b) known[column + static_cast<std::size_t>(b)] |= nonzero[b];
+      for (int q = 0; q < 4; ++q) {
+        simd::U8x16 k;
+        std::memcpy(&k, known + column + 16 * q, sizeof k);
+        k |= nonzero[q];
+        std::memcpy(known + column + 16 * q, &k, sizeof k);
+      }
       column += 64;
       if (column == columns) column = 0;
     } else {  // the word runs into the next plane
+      std::uint8_t flags[64];
+      std::memcpy(flags, nonzero, sizeof flags);
       for (int b = 0; b < 64; ++b) {
-        known[column] |= nonzero[b];
+        known[column] |= flags[b];
         if (++column == columns) column = 0;
       }
     }

@@ -270,9 +270,13 @@ class FeatureMap : public ZoneObserver {
   std::unique_ptr<std::int16_t[]> terrain_;       // per column: terrain height, or -1
   std::unique_ptr<std::int16_t[]> run_top_;       // per column: top of the run from lowest_, or -1
   std::unique_ptr<std::int16_t[]> ground_top_;    // per column: highest ground height, or -1
-  // Summed-area tables, one per band height k = 0 .. ground_band_cells_: columns
-  // whose clipped run height above the terrain is at least k.
-  std::unique_ptr<std::int32_t[]> band_tables_;
+  // Summed-area tables of the columns whose clipped run height above the terrain
+  // is at least k, for k = 0 .. ground_band_cells_, interleaved: entry (x, y)
+  // holds band_lanes() counts, k in lane k. Counts are kept modulo 2^16: a
+  // window's count (its four corners' difference) is below 2^16, so it comes out
+  // exact whatever the zone's size, and the k of one entry add as 16-bit lanes.
+  int band_lanes() const { return ground_band_cells_ > 0 ? (ground_band_cells_ + 8) / 8 * 8 : 0; }
+  std::unique_ptr<std::uint16_t[]> band_tables_;
   std::unique_ptr<std::int16_t[]> column_tmp_;
   // window_min's buffer, for the widest radius (3 windows).
   std::size_t window_buffer_size() const {

@@ -227,6 +227,25 @@ TEST(FeatureGround, AMeasuredBandIsGroundAndThePostStandsOnIt) {
       << "the band, and the post's foot within its cell of scatter";
 }
 
+// The band's counts are kept modulo 2^16: past 65536 columns the tables wrap,
+// and a window's count must still come out exact (here at the far corner, where
+// the corners' sums are largest).
+TEST(FeatureGround, AMeasuredBandHoldsInAZoneOfMoreThan65536Columns) {
+  const std::array<int, 3> dims = {272, 248, 14};  // 67,456 columns
+  FeatureMap map(measured_band_config(dims), true);
+  TestZone zone = thick_band_field(dims);
+  for (int z = 6; z <= 11; ++z) zone.set(260, 240, z);
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 2u);
+  for (const Feature* post : obstacles) {
+    EXPECT_EQ(post->min.z, 2) << "down into the terrain cell (z = 2)";
+    EXPECT_EQ(post->max.z, 11);
+  }
+  ASSERT_EQ(features_of(map, FeatureKind::kGround).size(), 1u);
+  EXPECT_EQ(features_of(map, FeatureKind::kGround)[0]->max.z, 6);
+}
+
 TEST(FeatureGround, AThingCutByTheZonesBottomIsNoBand) {
   // A field at z = 0 for x < 8; beside it a hut 5 cells tall that the zone's
   // bottom face cuts (its ground lies in the zone below). Too small to be a

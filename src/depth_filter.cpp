@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 
 #include "simd_u16.hpp"
 
@@ -54,8 +53,9 @@ const std::uint16_t* DepthFilter::row(int v) {
 
 namespace {
 
+using simd::I16x8;
+using simd::store_u16;
 using simd::U16x8;
-using I16x8 = std::int16_t __attribute__((vector_size(16)));
 using F32x8 = float __attribute__((vector_size(32)));
 using I32x8 = std::int32_t __attribute__((vector_size(32)));
 
@@ -122,14 +122,6 @@ inline U16x8 mean_of(const Lanes8& lanes) {  // count >= 1 in every lane
   const I16x8 missing = lanes.centre == U16x8{};
   return reinterpret_cast<U16x8>(reinterpret_cast<I16x8>(out) & ~missing);
 }
-
-inline void store_u16(std::uint16_t* p, U16x8 v) {
-  std::memcpy(p, &v, sizeof v);
-}
-
-}  // namespace
-
-namespace {
 
 // Rows: eight centres at a time, their 2R other taps beside them in the row,
 // from u while all of them lie in it; returns the first centre not done.

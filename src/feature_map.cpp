@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 
 #include "simd_u16.hpp"
 
@@ -262,8 +261,7 @@ void FeatureMap::compute_ground_top() {
           row -= reinterpret_cast<simd::U16x8>(simd::I16x8{} + height >= k);
           std::uint16_t* at = row_sat + static_cast<std::size_t>(x + 1) * lanes + group;
           const simd::U16x8 above = simd::load_u16(at - stride * lanes);
-          const simd::U16x8 sum = above + row;
-          std::memcpy(at, &sum, sizeof sum);
+          simd::store_u16(at, above + row);
         }
       }
     }

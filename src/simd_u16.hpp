@@ -21,11 +21,17 @@
 namespace zonemap::simd {
 
 using U16x8 = std::uint16_t __attribute__((vector_size(16)));
+using I16x8 = std::int16_t __attribute__((vector_size(16)));
+using U8x16 = std::uint8_t __attribute__((vector_size(16)));
 
 inline U16x8 load_u16(const std::uint16_t* p) {
   U16x8 v;
   std::memcpy(&v, p, sizeof v);
   return v;
+}
+
+inline void store_u16(std::uint16_t* p, U16x8 v) {
+  std::memcpy(p, &v, sizeof v);
 }
 
 inline U16x8 splat_u16(std::uint16_t v) {
@@ -85,8 +91,6 @@ inline U16x8 saturating_add(U16x8 a, U16x8 b) {
 
 // Sixteen-bit masks (lanes 0 or all ones) of two vectors as sixteen byte masks,
 // a's lanes first (snapshot capture: 16 cells' flags at once).
-using I16x8 = std::int16_t __attribute__((vector_size(16)));
-using U8x16 = std::uint8_t __attribute__((vector_size(16)));
 inline U8x16 narrow_masks(I16x8 a, I16x8 b) {
 #if defined(__SSE2__)
   return reinterpret_cast<U8x16>(
@@ -95,9 +99,8 @@ inline U8x16 narrow_masks(I16x8 a, I16x8 b) {
   return reinterpret_cast<U8x16>(vcombine_u8(vmovn_u16(reinterpret_cast<uint16x8_t>(a)),
                                              vmovn_u16(reinterpret_cast<uint16x8_t>(b))));
 #else
-  using U8x16Lanes = std::uint8_t __attribute__((vector_size(16)));
-  return __builtin_shufflevector(reinterpret_cast<U8x16Lanes>(a), reinterpret_cast<U8x16Lanes>(b),
-                                 0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  return __builtin_shufflevector(reinterpret_cast<U8x16>(a), reinterpret_cast<U8x16>(b), 0, 2, 4, 6,
+                                 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
 #endif
 }
 

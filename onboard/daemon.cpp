@@ -272,6 +272,9 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   s.features = static_cast<std::int64_t>(features_->count());
   s.feature_counters = features_->counters();
   s.cell_size_m = map_config_.cell_size_m;
+  s.pixels_sky = stats_.pixels_sky;
+  s.pixels_sky_refused = stats_.pixels_sky_refused;
+  s.sky_refused_max_frame = stats_.sky_refused_max_frame;
   s.poses_rejected = pose_counters_.gate.rejected_total() + pose_counters_.malformed;
   s.frames_ground_below_environment = stats_.frames_ground_below_environment;
   // Every sink's and the INS source's counters under "links".

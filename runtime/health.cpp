@@ -1,5 +1,7 @@
 // The counters the pipeline reports: the health message's (filled on the mapping
 // and extraction threads, completed on the output thread) and stats.json's.
+#include <algorithm>
+
 #include "runtime/pipeline_impl.hpp"
 
 namespace zonemap::runtime {
@@ -36,6 +38,19 @@ void Pipeline::Impl::fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
   h->add("dropped_pool_full", h->dropped_pool_full);
   h->add("extractions_deferred", s.extractions_deferred);
   h->add("reintegration_zone_gone", s.reintegration_zone_gone);
+  h->add("pixels_sky", s.pixels_sky);
+  h->add("pixels_sky_refused", s.pixels_sky_refused);
+  h->add("sky_last_frame", s.sky_last_frame);
+  h->add("sky_refused_last_frame", s.sky_refused_last_frame);
+}
+
+void count_sky(const FrameReport& report, PipelineStats* s) {
+  s->pixels_sky += report.pixels_sky;
+  s->pixels_sky_refused += report.pixels_sky_refused;
+  s->sky_last_frame = report.pixels_sky;
+  s->sky_refused_last_frame = report.pixels_sky_refused;
+  s->sky_refused_max_frame =
+      std::max<std::int64_t>(s->sky_refused_max_frame, report.pixels_sky_refused);
 }
 
 // The feature map's part, on the extraction thread (which owns it).

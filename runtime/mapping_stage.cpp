@@ -84,6 +84,7 @@ void Pipeline::Impl::mapping() {
     }
     ++s.frames_mapped;
     s.frames_ground_below_environment += ground_below_environment(report) ? 1 : 0;
+    count_sky(report, &s);
     // Periodic extraction (the single-threaded replay's schedule).
     const int pick = schedule.after_frame(s.frames_mapped, mapper.zones().live_zone_count());
     ZoneView periodic;

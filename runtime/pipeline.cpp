@@ -92,6 +92,11 @@ PipelineStats Pipeline::Impl::gathered_stats() const {
   s.reintegration_boxes = m.reintegration_boxes;
   s.reintegration_cells = m.reintegration_cells;
   s.reintegration_zone_gone = m.reintegration_zone_gone;
+  s.pixels_sky = m.pixels_sky;
+  s.pixels_sky_refused = m.pixels_sky_refused;
+  s.sky_last_frame = m.sky_last_frame;
+  s.sky_refused_last_frame = m.sky_refused_last_frame;
+  s.sky_refused_max_frame = m.sky_refused_max_frame;
   s.frames_lost = a.frames_lost;
   s.stopped = a.stopped;
   s.mapping_thread_allocations = m.mapping_thread_allocations;

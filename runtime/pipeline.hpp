@@ -72,6 +72,10 @@ struct PipelineStats : hal::FrameCounters {
   std::int64_t reintegration_zone_gone = 0;  // the zone was discarded before its boxes came
   LatencyHistogram extraction;               // one zone snapshot extracted
   std::int64_t frames_lost = 0;              // the frame source's sequence gaps
+  // The sky filter's pixels (SkyFilter): taken for sky, refused (bright, flat, no
+  // depth, but not where sky can be), and the last mapped frame's of each.
+  std::int64_t pixels_sky = 0, pixels_sky_refused = 0;
+  std::int64_t sky_last_frame = 0, sky_refused_last_frame = 0, sky_refused_max_frame = 0;
   std::int64_t health_published = 0;
   bool stopped = false;                   // stop() ended the run before the source did
   LatencyHistogram acquire_to_map_start;  // queueing
@@ -99,6 +103,9 @@ class MappingHooks {
 // Adds a pipeline run's figures to stats.json's (frames, drops, latency, memory,
 // allocations of every thread). Counts are added, so single-threaded figures stay.
 void add_to_run_stats(const PipelineStats& pipeline, hal::RunStats* stats);
+
+// A mapped frame's sky pixels into the pipeline's figures (health, stats.json).
+void count_sky(const FrameReport& report, PipelineStats* stats);
 
 class Pipeline {
  public:

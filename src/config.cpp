@@ -47,6 +47,11 @@ std::string validate(const MapConfig& c) {
   } else if (c.sky.min_intensity < 0 || c.sky.min_intensity > 255 || c.sky.max_gradient < 0 ||
              c.sky.max_gradient > 255) {
     why << "sky_filter.min_intensity and max_gradient must be in [0, 255]";
+  } else if (!(c.sky.horizon_margin_deg >= 0.0 && c.sky.horizon_margin_deg <= 30.0) ||
+             c.sky.max_gap_px < 0 || c.sky.max_gap_px > 64 ||
+             !(c.sky.min_region_share >= 0.0 && c.sky.min_region_share <= 1.0)) {
+    why << "sky_filter.horizon_margin_deg must be in [0, 30], max_gap_px in [0, 64] and "
+           "min_region_share in [0, 1]";
   } else if (!(c.above_camera_m >= 0.0) || !std::isfinite(c.above_camera_m)) {
     why << "map.above_camera_m must be >= 0";
   } else if (!(c.timestamps.max_step_s > 0.0) || c.timestamps.confirm_values < 2 ||

@@ -67,18 +67,26 @@ RowCounts convert_row(const std::uint16_t* __restrict raw_row, std::uint16_t* __
   return counts;
 }
 
-// Missing pixels flagged as sky become kFar (free up to d_max); returns how many.
-std::uint16_t mark_sky(const std::uint16_t* __restrict raw_row, const std::uint8_t* __restrict sky,
-                       std::uint16_t* __restrict out, int width) {
+struct SkyCounts {
+  std::uint16_t sky = 0, refused = 0;
+};
+
+// Missing pixels flagged bright and flat (candidates) become kFar (free up to
+// d_max) where SkyFilter's mask says sky; the others stay missing (refused).
+SkyCounts mark_sky(const std::uint16_t* __restrict raw_row, const std::uint8_t* __restrict flags,
+                   const std::uint8_t* __restrict sky_mask, std::uint16_t* __restrict out,
+                   int width) {
   static_assert(DepthRangeTable::kFar == DepthRangeTable::kMissing - 1);
-  int count = 0;
+  int candidates = 0, sky = 0;
   for (int u = 0; u < width; ++u) {
+    const int candidate = (raw_row[u] == 0 ? 1 : 0) & flags[u];
+    const int is_sky = candidate & sky_mask[u];
+    candidates += candidate;
+    sky += is_sky;
     // A missing pixel's code is kMissing: minus one makes it kFar.
-    const std::uint16_t is_sky = static_cast<std::uint16_t>((raw_row[u] == 0 ? 1 : 0) & sky[u]);
-    count += is_sky;
     out[u] = static_cast<std::uint16_t>(out[u] - is_sky);
   }
-  return static_cast<std::uint16_t>(count);
+  return {static_cast<std::uint16_t>(sky), static_cast<std::uint16_t>(candidates - sky)};
 }
 
 // The first raw depth whose float depth (raw * depth_to_m, as the reference path
@@ -119,6 +127,7 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.occupied_threshold_units)))),
       free_threshold_(
           static_cast<FusedCell>(to_fixed(static_cast<float>(config.free_threshold_units)))),
+      sky_(config.sky, camera),
       sky_flags_(new std::uint8_t[kMaxDepthParts * 3 *
                                   static_cast<std::size_t>(std::max(camera.width, 1))]()) {
   if (config.see_through > 0.0 && config.integration == MapConfig::Integration::kReference) {
@@ -161,50 +170,6 @@ Eigen::Vector3d Mapper::cell_center(const CellIndex& cell) const {
   return Eigen::Vector3d(cell.x + 0.5, cell.y + 0.5, cell.z + 0.5) * config_.cell_size_m;
 }
 
-void Mapper::sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const {
-  const int w = camera_.width;
-  const int h = camera_.height;
-  const std::uint8_t* rows[3] = {left + static_cast<std::size_t>(std::max(v - 1, 0)) * w,
-                                 left + static_cast<std::size_t>(v) * w,
-                                 left + static_cast<std::size_t>(std::min(v + 1, h - 1)) * w};
-  const auto min_intensity = static_cast<std::uint8_t>(config_.sky.min_intensity);
-  const auto max_gradient = static_cast<std::uint8_t>(config_.sky.max_gradient);
-  // Every neighbour n is within g of the centre c when max(n) - c <= g and
-  // c - min(n) <= g: the 3 x 3 maximum and minimum, separably (columns first).
-  std::uint8_t* column_max = flags + w;
-  std::uint8_t* column_min = flags + 2 * static_cast<std::size_t>(w);
-  for (int u = 0; u < w; ++u) {
-    column_max[u] = std::max(std::max(rows[0][u], rows[1][u]), rows[2][u]);
-    column_min[u] = std::min(std::min(rows[0][u], rows[1][u]), rows[2][u]);
-  }
-  // Edge columns repeat their neighbour (the image is clamped at its border).
-  const auto flag = [&](std::uint8_t centre, std::uint8_t high, std::uint8_t low) {
-    return static_cast<std::uint8_t>(centre >= min_intensity &&
-                                     static_cast<std::uint8_t>(high - centre) <= max_gradient &&
-                                     static_cast<std::uint8_t>(centre - low) <= max_gradient);
-  };
-  if (w < 3) {
-    for (int u = 0; u < w; ++u) {
-      const int l = std::max(u - 1, 0), r = std::min(u + 1, w - 1);
-      flags[u] = flag(rows[1][u], std::max(column_max[l], column_max[r]),
-                      std::min(column_min[l], column_min[r]));
-    }
-    return;
-  }
-  flags[0] = flag(rows[1][0], std::max(column_max[0], column_max[1]),
-                  std::min(column_min[0], column_min[1]));
-  flags[w - 1] = flag(rows[1][w - 1], std::max(column_max[w - 2], column_max[w - 1]),
-                      std::min(column_min[w - 2], column_min[w - 1]));
-  // The interior without clamping: plain byte arithmetic the compiler vectorises.
-  for (int u = 1; u < w - 1; ++u) {
-    const std::uint8_t high =
-        std::max(std::max(column_max[u - 1], column_max[u]), column_max[u + 1]);
-    const std::uint8_t low =
-        std::min(std::min(column_min[u - 1], column_min[u]), column_min[u + 1]);
-    flags[u] = flag(rows[1][u], high, low);
-  }
-}
-
 FrameReport Mapper::integrate(const DepthFrameView& frame,
                               const Eigen::Isometry3d& world_T_camera) {
   FrameReport report;
@@ -223,6 +188,11 @@ FrameReport Mapper::integrate(const DepthFrameView& frame,
   report.zones_allocated = zones_.move_environment(origin, split_);
   local_.reset(origin);
   filter_.begin(frame.depth);
+  if (config_.sky.enabled && frame.left != nullptr) {
+    const Eigen::Vector3d up_world(0.0, 0.0, camera_.world_z_up ? 1.0 : -1.0);
+    sky_.scan(frame.depth, frame.left,
+              (world_T_camera.linear().transpose() * up_world).cast<float>());
+  }
   sample_hits_below(frame, world_T_camera, origin, &report);
 
   // Ray geometry in grid units relative to the local grid's minimum corner.
@@ -277,12 +247,14 @@ void Mapper::classify_depths(const DepthFrameView& frame, FrameReport* report) {
     all.far += c.far;
     all.missing += c.missing;
     all.sky += c.sky;
+    all.sky_refused += c.sky_refused;
   }
   report->rays_hit += all.hit;
   report->rays_free += all.far;
   report->pixels_too_near += all.near;
   report->pixels_missing += all.missing;
   report->pixels_sky += all.sky;
+  report->pixels_sky_refused += all.sky_refused;
 }
 
 Mapper::DepthCounts Mapper::classify_rows(const DepthFrameView& frame, int first, int end,
@@ -299,13 +271,17 @@ Mapper::DepthCounts Mapper::classify_rows(const DepthFrameView& frame, int first
     counts.far += row.far;
     counts.hit += frame.width - row.missing - row.near - row.far;
     counts.missing += row.missing;
-    // Missing pixels of a bright, textureless patch are sky: free up to d_max.
+    // Missing pixels of a bright, textureless patch are sky where SkyFilter's
+    // scan left their column open: free up to d_max.
     if (row.missing > 0 && sky_filter) {
-      sky_row(frame.left, v, sky_flags);
-      const std::uint16_t row_sky = mark_sky(depth_row, sky_flags, out, frame.width);
-      counts.sky += row_sky;
-      counts.missing -= row_sky;
-      counts.far += row_sky;
+      sky_.candidate_row(frame.left, v, sky_flags);
+      std::uint8_t* sky_mask = sky_flags + frame.width;  // candidate_row's scratch, free now
+      sky_.sky_mask_row(v, sky_mask);
+      const SkyCounts row_sky = mark_sky(depth_row, sky_flags, sky_mask, out, frame.width);
+      counts.sky += row_sky.sky;
+      counts.sky_refused += row_sky.refused;
+      counts.missing -= row_sky.sky;
+      counts.far += row_sky.sky;
     }
   }
   return counts;
@@ -333,13 +309,16 @@ void Mapper::integrate_reference(const DepthFrameView& frame, const Eigen::Vecto
       const std::uint16_t raw = depth_row[u];
       if (raw == 0) {
         if (sky_filter && !sky_known) {
-          sky_row(frame.left, v, sky_flags_.get());
+          sky_.candidate_row(frame.left, v, sky_flags_.get());
+          sky_.sky_mask_row(v, sky_flags_.get() + frame.width);
           sky_known = true;
         }
-        if (sky_filter && sky_flags_[static_cast<std::size_t>(u)] != 0) {
+        const bool candidate = sky_filter && sky_flags_[static_cast<std::size_t>(u)] != 0;
+        if (candidate && sky_flags_[static_cast<std::size_t>(frame.width + u)] != 0) {
           ++report->pixels_sky;
           ray.free_only = true;
         } else {
+          report->pixels_sky_refused += candidate ? 1 : 0;
           ++report->pixels_missing;
           continue;
         }

@@ -170,6 +170,59 @@ ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count
   return out;
 }
 
+namespace {
+
+// Heights sampled at each step, from the vehicle's down to the band's bottom.
+constexpr int kSeenHeights = 5;
+constexpr double kUnseenTailShare = 0.2;
+
+// One line of a sector's wedge, from min_distance out to max_distance a cell a
+// step: seen (true) when at least four steps lie inside the zones holding a grid,
+// at least half of those have a seen cell (fused value != 0) at one of `heights`
+// above the vehicle, and no run of unseen steps longer than max_unseen_gap_m lies
+// between seen ones.
+bool line_seen(const ZoneMap& zones, double cell_size_m, const Eigen::Vector3d& position,
+               const Eigen::Vector3d& dir, const Eigen::Vector3d& up,
+               const double (&heights)[kSeenHeights], const SectorConfig& config) {
+  const int steps =
+      static_cast<int>(std::ceil((config.max_distance_m - config.min_distance_m) / cell_size_m));
+  const int longest_gap = static_cast<int>(std::floor(config.max_unseen_gap_m / cell_size_m));
+  const auto cell_of = [cell_size_m](const Eigen::Vector3d& p) {
+    return CellIndex{static_cast<std::int32_t>(std::floor(p.x() / cell_size_m)),
+                     static_cast<std::int32_t>(std::floor(p.y() / cell_size_m)),
+                     static_cast<std::int32_t>(std::floor(p.z() / cell_size_m))};
+  };
+  int inside = 0, seen = 0, gap = 0;
+  bool hole = false;
+  for (int k = 0; k <= steps && !hole; ++k) {
+    const Eigen::Vector3d along = position + dir * (config.min_distance_m + k * cell_size_m);
+    bool any_inside = false, any_seen = false;
+    for (const double h : heights) {
+      FusedCell v = 0;
+      if (zones.value_at(cell_of(along + up * h), &v)) {
+        any_inside = true;
+        any_seen = any_seen || v != 0;
+      }
+    }
+    inside += any_inside ? 1 : 0;
+    seen += any_seen ? 1 : 0;
+    // An unseen stretch between seen cells is what a surface no view matched
+    // leaves (a white wall and its shadow): not known free across it.
+    hole = any_seen && gap > longest_gap;
+    if (any_inside) gap = any_seen ? 0 : (seen > 0 ? gap + 1 : 0);
+  }
+  // The stretch past the last seen step counts too, but for the last
+  // kUnseenTailShare of max_distance (far ground that fused to zero, the zone's
+  // edge): a sector reading free has been seen out to 80% of max_distance.
+  const int longest_tail = std::max(
+      longest_gap,
+      static_cast<int>(std::floor(kUnseenTailShare * config.max_distance_m / cell_size_m)));
+  if (hole || gap > longest_tail) return false;
+  return inside >= 4 && 2 * seen >= inside;
+}
+
+}  // namespace
+
 SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
                             const Eigen::Isometry3d& world_T_body, bool world_z_up,
                             const SectorConfig& config) {
@@ -177,32 +230,25 @@ SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
   const HorizontalAxes axes = horizontal_axes(world_T_body, world_z_up);
   const Eigen::Vector3d position = world_T_body.translation();
   const Eigen::Vector3d up = -axes.down;
-  const double heights[3] = {-config.band_below_m, 0.0, config.band_above_m};
-  const int steps =
-      static_cast<int>(std::ceil((config.max_distance_m - config.min_distance_m) / cell_size_m));
-  const auto cell_of = [cell_size_m](const Eigen::Vector3d& p) {
-    return CellIndex{static_cast<std::int32_t>(std::floor(p.x() / cell_size_m)),
-                     static_cast<std::int32_t>(std::floor(p.y() / cell_size_m)),
-                     static_cast<std::int32_t>(std::floor(p.z() / cell_size_m))};
-  };
+  // From the vehicle's height down to the band's bottom: a cell seen there shows
+  // whether something standing on the ground reaches into the band (rays to the
+  // ground cross the cells just above it). The band's top does not: it is seen
+  // free over a wall nothing has measured.
+  double heights[kSeenHeights];
+  for (int i = 0; i < kSeenHeights; ++i) {
+    heights[i] = -config.band_below_m * i / (kSeenHeights - 1);
+  }
+  // The wedge's centre line and two lines near its edges: a wall's corner inside
+  // the wedge but off its centre keeps the sector from reading free.
+  constexpr double kLines[3] = {-0.4, 0.0, 0.4};
   for (int s = 0; s < kObstacleSectors; ++s) {
-    const double bearing = s * kStep;
-    const Eigen::Vector3d dir = axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
-    int inside = 0, seen = 0;
-    for (int k = 0; k <= steps; ++k) {
-      const Eigen::Vector3d along = position + dir * (config.min_distance_m + k * cell_size_m);
-      bool any_inside = false, any_seen = false;
-      for (const double h : heights) {
-        FusedCell v = 0;
-        if (zones.value_at(cell_of(along + up * h), &v)) {
-          any_inside = true;
-          any_seen = any_seen || v != 0;
-        }
-      }
-      inside += any_inside ? 1 : 0;
-      seen += any_seen ? 1 : 0;
+    bool seen = true;
+    for (const double offset : kLines) {
+      const double bearing = (s + offset) * kStep;
+      const Eigen::Vector3d dir = axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
+      seen = seen && line_seen(zones, cell_size_m, position, dir, up, heights, config);
     }
-    observed[static_cast<std::size_t>(s)] = inside >= 4 && 2 * seen >= inside;
+    observed[static_cast<std::size_t>(s)] = seen;
   }
   return observed;
 }

@@ -50,6 +50,8 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << "  \"rays_hit\": " << s.rays_hit << ",\n"
       << "  \"rays_free\": " << s.rays_free << ",\n"
       << "  \"pixels_sky\": " << s.pixels_sky << ",\n"
+      << "  \"pixels_sky_refused\": " << s.pixels_sky_refused << ",\n"
+      << "  \"sky_refused_max_frame\": " << s.sky_refused_max_frame << ",\n"
       << "  \"pixels_missing\": " << s.pixels_missing << ",\n"
       << "  \"pixels_too_near\": " << s.pixels_too_near << ",\n"
       << "  \"frames_ground_below_environment\": " << s.frames_ground_below_environment << ",\n"

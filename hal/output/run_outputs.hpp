@@ -37,6 +37,8 @@ struct RunStats : FrameCounters {
   std::int64_t rays_hit = 0;
   std::int64_t rays_free = 0;
   std::int64_t pixels_sky = 0;
+  std::int64_t pixels_sky_refused = 0;     // bright, flat, no depth, but not where sky can be
+  std::int64_t sky_refused_max_frame = 0;  // the most refused in one frame
   std::int64_t pixels_missing = 0;
   std::int64_t pixels_too_near = 0;
   std::int64_t occupied_cells_final = 0;

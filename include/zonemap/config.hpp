@@ -23,6 +23,15 @@ struct SkyFilterConfig {
   bool enabled = true;
   int min_intensity = 200;  // left-image brightness that may be sky (0..255)
   int max_gradient = 8;     // largest 3x3 neighbour difference of a low-texture region
+  // Sky only well above the horizon the pose gives, never continuing well below it
+  // (attitude error, camera mount): SkyFilter, docs/sky.md.
+  double horizon_margin_deg = 2.0;
+  // A bright flat run with a measured pixel at most this many rows under it rests
+  // on that surface (stereo leaves edges unmatched for a few pixels): not sky.
+  int max_gap_px = 4;
+  // A bright flat region smaller than this share of the image (a pane of a white
+  // facade) is not sky.
+  double min_region_share = 0.01;
 };
 
 // The feature map (paper §IV) and the ground model (past the paper).

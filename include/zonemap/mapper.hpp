@@ -18,6 +18,7 @@
 #include "zonemap/depth_range_table.hpp"
 #include "zonemap/local_grid.hpp"
 #include "zonemap/projective_integrator.hpp"
+#include "zonemap/sky_filter.hpp"
 #include "zonemap/zone_map.hpp"
 
 namespace zonemap {
@@ -37,9 +38,12 @@ enum class FrameStatus : std::uint8_t {
 
 struct FrameReport {
   FrameStatus status = FrameStatus::kMapped;
-  std::int32_t rays_hit = 0;         // pixels with a depth in [d_min, d_max]
-  std::int32_t rays_free = 0;        // depth beyond d_max, or sky: free up to d_max
-  std::int32_t pixels_sky = 0;       // missing depth classified as sky
+  std::int32_t rays_hit = 0;    // pixels with a depth in [d_min, d_max]
+  std::int32_t rays_free = 0;   // depth beyond d_max, or sky: free up to d_max
+  std::int32_t pixels_sky = 0;  // missing depth classified as sky
+  // Missing depth, bright and flat, but not where sky can be (SkyFilter: below
+  // the horizon, under or resting on a measured surface): left unknown.
+  std::int32_t pixels_sky_refused = 0;
   std::int32_t pixels_missing = 0;   // missing depth, not sky: ignored
   std::int32_t pixels_too_near = 0;  // depth below d_min: ignored
   std::int32_t zones_allocated = 0;
@@ -91,7 +95,8 @@ class Mapper {
   std::size_t depth_table_bytes() const {
     return depths_.reserved_bytes() + projective_.reserved_bytes() +
            kMaxDepthParts *
-               (filter_.reserved_bytes() + 3 * static_cast<std::size_t>(camera_.width));
+               (filter_.reserved_bytes() + 3 * static_cast<std::size_t>(camera_.width)) +
+           sky_.reserved_bytes();
   }
   std::size_t reserved_bytes() const {
     return zones_.reserved_bytes() + local_.reserved_bytes() + depth_table_bytes();
@@ -114,11 +119,6 @@ class Mapper {
   FusedCell free_threshold() const { return free_threshold_; }
 
  private:
-  // flags[u] = 1 where pixel (u, v) of the left image may be sky: bright, and
-  // every 8-neighbour within max_gradient of it (low texture). One row at a time,
-  // so that the comparisons run sixteen pixels at once; flags holds three rows
-  // (the flags, then the columns' maxima and minima over rows v - 1..v + 1).
-  void sky_row(const std::uint8_t* left, int v, std::uint8_t* flags) const;
   // The two integration paths, each drawing the frame into the local grid: the
   // projective one (the depth table, then every frustum cell once) and the
   // reference (every pixel_step-th pixel's ray walked).
@@ -128,7 +128,7 @@ class Mapper {
   // bands of rows, one per part of the work split.
   void classify_depths(const DepthFrameView& frame, FrameReport* report);
   struct DepthCounts {
-    std::int32_t hit = 0, near = 0, far = 0, missing = 0, sky = 0;
+    std::int32_t hit = 0, near = 0, far = 0, missing = 0, sky = 0, sky_refused = 0;
   };
   // Rows [first, end) of classify_depths, with a part's own filter and sky rows.
   DepthCounts classify_rows(const DepthFrameView& frame, int first, int end, DepthFilter& filter,
@@ -155,7 +155,8 @@ class Mapper {
   ProjectiveIntegrator projective_;
   FusedCell occupied_threshold_;
   FusedCell free_threshold_;
-  std::unique_ptr<std::uint8_t[]> sky_flags_;  // sky_row's three rows, per part
+  SkyFilter sky_;                              // where bright flat pixels may be sky
+  std::unique_ptr<std::uint8_t[]> sky_flags_;  // candidate_row's three rows, per part
   std::array<DepthCounts, kMaxDepthParts> part_counts_{};
   WorkSplit* split_ = nullptr;
   std::uint16_t raw_near_last_ = 0;   // raw depths <= this are below d_min (0: none)

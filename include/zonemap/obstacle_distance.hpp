@@ -30,6 +30,9 @@ struct SectorConfig {
   double max_distance_m = 50.0;  // beyond this: no obstacle
   double band_below_m = 5.0;     // boxes reaching into [vehicle - below, vehicle + above]
   double band_above_m = 5.0;
+  // A sector reads "no obstacle" only when no longer unseen stretch lies along it
+  // (observed_sectors).
+  double max_unseen_gap_m = 2.0;
 };
 
 // Which sectors the map has looked into (true = observed).
@@ -64,11 +67,16 @@ ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count
                                      const Eigen::Isometry3d& world_T_body, bool world_z_up,
                                      const SectorConfig& config, const SectorMask& observed);
 
-// A sector counts as observed when, along its centre line from min_distance out to
-// max_distance, at least half of the steps (one a cell) that lie inside the zones
-// holding a grid have a seen cell (fused value != 0, free or occupied) at one of
-// three heights of the band (bottom, vehicle, top), and at least four steps do.
-// Reads at most 72 x 3 x (max_distance / cell) cells; allocation-free.
+// A sector counts as observed when each of three lines of its wedge (its centre
+// line and 0.4 of a sector either side), from min_distance out to max_distance a
+// cell a step, has at least four steps inside the zones holding a grid, at least
+// half of those with a seen cell (fused value != 0, free or occupied) at one of
+// five heights from the vehicle's down to the band's bottom, and no unseen
+// stretch longer than max_unseen_gap_m between seen steps nor past the last one
+// longer than a fifth of max_distance (what a surface stereo never matched, a
+// white wall, leaves: not free; "free" is seen free out to 80% of max_distance).
+// The band's top does not count: it is seen free over such a wall.
+// Reads at most 72 x 3 x 5 x (max_distance / cell) cells; allocation-free.
 SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
                             const Eigen::Isometry3d& world_T_body, bool world_z_up,
                             const SectorConfig& config);

@@ -145,6 +145,20 @@ for (const { message: s } of byTopic.get("/zonemap/sectors") ?? []) {
   const sent = s.entities[0].metadata.find((kv) => kv.key === "distances_cm").value.split(",");
   check(sent.length === 72 && s.entities[0].triangles[0].points.length === 216, "72 sectors");
 }
+// The sky filter's counters ride on every health message, cumulative ones never
+// falling and never past stats.json's totals.
+const stats = JSON.parse(readFileSync(`${out}/stats.json`, "utf8"));
+let skySeen = 0;
+for (const { message: h } of byTopic.get("/zonemap/health") ?? []) {
+  const c = h.counters;
+  for (const key of ["pixels_sky", "pixels_sky_refused", "sky_last_frame", "sky_refused_last_frame"]) {
+    check(Number.isInteger(c[key]) && c[key] >= 0, `health without ${key}`);
+  }
+  check(c.pixels_sky >= skySeen && c.pixels_sky <= stats.pixels_sky, "health pixels_sky against stats.json");
+  check(c.pixels_sky_refused <= stats.pixels_sky_refused, "health pixels_sky_refused against stats.json");
+  check(c.sky_refused_last_frame <= stats.sky_refused_max_frame, "sky_refused_last_frame over the run's most");
+  skySeen = c.pixels_sky;
+}
 const csv = readFileSync(`${out}/boxes.csv`, "utf8").trim().split("\n").slice(1);
 const rows = new Map(
   csv.map((line) => {

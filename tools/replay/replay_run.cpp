@@ -244,6 +244,10 @@ void ReplayRun::record_health(double time_s) {
   h.mapping_ms_p50 = frame_ms_.empty() ? 0.0 : frame_ms_.back();
   h.add("rays_hit", stats_.rays_hit);
   h.add("cells_visited", stats_.cells_visited);
+  h.add("pixels_sky", stats_.pixels_sky);
+  h.add("pixels_sky_refused", stats_.pixels_sky_refused);
+  h.add("sky_last_frame", last_sky_);
+  h.add("sky_refused_last_frame", last_sky_refused_);
   recorder_->record_health(h);
 }
 
@@ -349,6 +353,11 @@ void ReplayRun::account_mapped_frame(std::size_t frame_index, const Eigen::Isome
   stats_.cells_visited += report.cells_visited;
   stats_.rays_free += report.rays_free;
   stats_.pixels_sky += report.pixels_sky;
+  stats_.pixels_sky_refused += report.pixels_sky_refused;
+  stats_.sky_refused_max_frame =
+      std::max<std::int64_t>(stats_.sky_refused_max_frame, report.pixels_sky_refused);
+  last_sky_ = report.pixels_sky;
+  last_sky_refused_ = report.pixels_sky_refused;
   stats_.pixels_missing += report.pixels_missing;
   stats_.pixels_too_near += report.pixels_too_near;
   stats_.frames_ground_below_environment += ground_below_environment(report) ? 1 : 0;

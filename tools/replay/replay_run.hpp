@@ -125,6 +125,7 @@ class ReplayRun : private runtime::MappingHooks {
   hal::MergedUpdate update_;
   double recorded_occupied_s_ = -INFINITY, recorded_boxes_s_ = -INFINITY;
   double recorded_health_s_ = -INFINITY;
+  std::int64_t last_sky_ = 0, last_sky_refused_ = 0;  // the last mapped frame's sky pixels
   bool boxes_changed_ = false;
   std::int64_t depth_offered_ = 0;
   double last_time_s_ = 0.0;  // the newest mapped frame

@@ -50,6 +50,41 @@ void terrain_scene(bool rises, std::uint64_t seed, Scenario* s) {
                             Eigen::Vector3d(wall_x + 0.5, -4.0, wall_base + 2.5)});
 }
 
+// White, textureless things stereo cannot match (SkyFilter must not take them for
+// sky), under open sky: a house wall flown at and passed beside at 6 m, a tall
+// building filling the view above the horizon, a white van seen from above.
+void white_scene(const std::string& name, double rate, Scenario* s) {
+  s->config = "config/paper-flight2.yaml";
+  Box wall{"white_wall", Eigen::Vector3d(60.0, -10.0, 0.0), Eigen::Vector3d(60.5, 10.0, 9.0)};
+  wall.white = true;
+  if (name == "white-wall") {
+    s->description = "a white house wall 9 m tall flown at, from 45 m to 15 m, at 6 m";
+    s->scene.boxes.push_back(wall);
+    s->trajectory = straight({15, 0, 6.0}, {45, 0, 6.0}, 3.0, 5 * kDeg, rate);
+  } else if (name == "white-wall-beside") {
+    s->description = "a white house wall 9 m tall passed beside at 10 m, at 6 m";
+    wall.min = Eigen::Vector3d(30.0, 10.0, 0.0);
+    wall.max = Eigen::Vector3d(70.0, 10.5, 9.0);
+    s->scene.boxes.push_back(wall);
+    s->trajectory = straight({0, 0, 6.0}, {80, 0, 6.0}, 4.0, 5 * kDeg, rate);
+  } else if (name == "white-tower") {
+    s->description =
+        "a white building 30 m tall rising above the horizon, flown at from 60 m to 25 m";
+    wall.name = "white_tower";
+    wall.min = Eigen::Vector3d(60.0, -15.0, 0.0);
+    wall.max = Eigen::Vector3d(75.0, 15.0, 30.0);
+    s->scene.boxes.push_back(wall);
+    s->trajectory = straight({0, 0, 8.0}, {35, 0, 8.0}, 3.0, 0.0, rate);
+  } else {  // white-van
+    s->description = "a white van on a field, a post beside it, flown over at 8 m";
+    Box van{"white_van", Eigen::Vector3d(40.0, -1.0, 0.0), Eigen::Vector3d(45.0, 1.0, 2.2)};
+    van.white = true;
+    s->scene.boxes.push_back(van);
+    s->scene.cylinders.push_back({"post", Eigen::Vector2d(42.0, 5.0), 0.25, 0.0, 5.0});
+    s->trajectory = straight({0, 0, 8.0}, {38, 0, 8.0}, 3.0, 12 * kDeg, rate);
+  }
+}
+
 }  // namespace
 
 CameraModel paper_camera(int width) {
@@ -69,7 +104,8 @@ CameraModel paper_camera(int width) {
 std::vector<std::string> scenario_names() {
   return {"bushes",         "treeline",     "posts-through", "posts-around", "out-and-back",
           "treeline-dense", "hedge",        "hedge-beside",  "posts-high",   "crossing-car",
-          "parked-car",     "terrain-rise", "terrain-fall"};
+          "parked-car",     "terrain-rise", "terrain-fall",  "white-wall",   "white-wall-beside",
+          "white-tower",    "white-van"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -213,6 +249,9 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
       p.time_s += t_turn;
       s->trajectory.push_back(p);
     }
+  } else if (name.rfind("white-", 0) == 0 && (name == "white-wall" || name == "white-wall-beside" ||
+                                              name == "white-tower" || name == "white-van")) {
+    white_scene(name, rate, s);
   } else if (name == "terrain-rise" || name == "terrain-fall") {
     terrain_scene(name == "terrain-rise", options.seed, s);
     s->trajectory = straight({0, 0, 18.0}, {58, 0, 18.0}, 5.0, 20 * kDeg, rate);

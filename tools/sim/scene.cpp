@@ -181,6 +181,14 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
         depth[i] = 0;
         continue;
       }
+      const int cylinders = static_cast<int>(scene.cylinders.size());
+      if (object >= cylinders && scene.boxes[static_cast<std::size_t>(object - cylinders)].white) {
+        // A white, textureless surface: a little brighter than the sky (their
+        // boundary stays flat), and no stereo match anywhere on it.
+        left[i] = static_cast<std::uint8_t>(236 + static_cast<int>(grain * 3.0));
+        depth[i] = 0;
+        continue;
+      }
       left[i] = static_cast<std::uint8_t>(40 + static_cast<int>(texture(hit) * 150.0));
       const double noisy = d + noise * d * d * noise_factor;  // eq. (1) with the true sigma
       const bool hole = drop < options.hole_fraction ||
@@ -251,10 +259,10 @@ bool write_objects_yaml(const std::string& path, const Scene& scene,
         scene.cylinders.size() + static_cast<std::size_t>(&b - scene.boxes.data());
     std::snprintf(line, sizeof(line),
                   "  - {name: %s, type: box, min: [%.3f, %.3f, %.3f], max: [%.3f, %.3f, %.3f], "
-                  "pixel_hits: %lld%s%s}\n",
+                  "pixel_hits: %lld%s%s%s}\n",
                   b.name.c_str(), b.min.x(), b.min.y(), b.min.z(), b.max.x(), b.max.y(), b.max.z(),
                   static_cast<long long>(sightings.pixel_hits[k]), seen_top(sightings, k).c_str(),
-                  b.moving() ? ", moving: true" : "");
+                  b.moving() ? ", moving: true" : "", b.white ? ", white: true" : "");
     out << line;
   }
   if (scene.boxes.empty() && scene.cylinders.empty()) out << "  []\n";

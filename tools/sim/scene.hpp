@@ -20,6 +20,9 @@ struct Box {
   Eigen::Vector3d max;
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // a moving object (a car) ...
   double departs_s = 0.0;                                  // ... standing still until then
+  // Painted white with no texture (a house wall, a white van): as bright and flat
+  // as the sky, and stereo matches none of it.
+  bool white = false;
   bool moving() const { return !velocity_mps.isZero(); }
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace zonemap {
 
@@ -30,12 +31,13 @@ SkyFilter::SkyFilter(const SkyFilterConfig& config, const CameraModel& camera)
       min_region_px_(
           static_cast<int>(std::ceil(config.min_region_share * camera.width * camera.height))),
       rows_(new std::uint8_t[3 * static_cast<std::size_t>(width_)]()),
-      side_(new std::int8_t[static_cast<std::size_t>(width_)]()) {}
+      side_(new std::int8_t[static_cast<std::size_t>(width_)]()),
+      live_(new std::uint8_t[static_cast<std::size_t>(width_)]()) {}
 
 std::size_t SkyFilter::reserved_bytes() const {
   const auto w = static_cast<std::size_t>(width_);
   const auto runs = static_cast<std::size_t>(max_runs_);
-  return w * (4 * sizeof(std::int16_t) + 1 + 3 + 1) +
+  return w * (4 * sizeof(std::int16_t) + 1 + 3 + 1 + 1) +
          runs * (2 * sizeof(std::int16_t) + 2 * sizeof(std::int32_t) + 1) +
          (static_cast<std::size_t>(height_) + 1) * sizeof(std::int32_t);
 }
@@ -84,17 +86,60 @@ void SkyFilter::candidate_row(const std::uint8_t* left, int v, std::uint8_t* fla
   }
 }
 
-void SkyFilter::side_row(int v, const Eigen::Vector3f& up_camera, std::int8_t* side) const {
-  // Each pixel's ray (x, y, 1) against the up direction: sin(elevation) = s / |ray|,
+int SkyFilter::side_at(int u, float s0, float n0, const Eigen::Vector3f& up_camera) const {
+  // The pixel's ray (x, y, 1) against the up direction: sin(elevation) = s / |ray|,
   // beyond the margin where s² > sin²(margin) |ray|².
+  const float x = (static_cast<float>(u) - cx_) * inv_fx_;
+  const float s = up_camera.x() * x + s0;
+  if (!(s * s > sin2_margin_ * (x * x + n0))) return 0;
+  return s > 0.0f ? 1 : -1;
+}
+
+void SkyFilter::side_row(int v, const Eigen::Vector3f& up_camera, std::int8_t* side) const {
   const float y = (static_cast<float>(v) - cy_) * inv_fy_;
   const float s0 = up_camera.y() * y + up_camera.z();
   const float n0 = y * y + 1.0f;
-  for (int u = 0; u < width_; ++u) {
-    const float x = (static_cast<float>(u) - cx_) * inv_fx_;
-    const float s = up_camera.x() * x + s0;
-    const bool beyond = s * s > sin2_margin_ * (x * x + n0);
-    side[u] = static_cast<std::int8_t>(beyond ? (s > 0.0f ? 1 : -1) : 0);
+  // Along a row s is linear in x and s² - sin²(margin) |ray|² quadratic: the side
+  // changes only at their roots. Between them it is one value (a pixel inside the
+  // stretch says which); the pixels next to each root are taken one by one.
+  const double a = up_camera.x(), k = sin2_margin_;
+  double roots[3];
+  int n = 0;
+  const auto add_root = [&](double x) {
+    const double u = x / inv_fx_ + cx_;
+    if (u > -2.0 && u < width_ + 1.0) roots[n++] = u;
+  };
+  if (a != 0.0) add_root(-s0 / a);
+  const double qa = a * a - k, qb = 2.0 * a * s0, qc = double{s0} * s0 - k * n0;
+  if (std::abs(qa) > 1e-12) {
+    const double discriminant = qb * qb - 4.0 * qa * qc;
+    if (discriminant > 0.0) {
+      const double r = std::sqrt(discriminant);
+      add_root((-qb - r) / (2.0 * qa));
+      add_root((-qb + r) / (2.0 * qa));
+    }
+  } else if (qb != 0.0) {
+    add_root(-qc / qb);
+  }
+  // At most three: sorted by compare-and-swap.
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      if (roots[j] < roots[i]) std::swap(roots[i], roots[j]);
+  int start = 0;
+  for (int i = 0; i <= n; ++i) {
+    const int end =
+        i < n ? std::clamp(static_cast<int>(std::floor(roots[i])) + 1, start, width_) : width_;
+    if (end > start) {
+      const int value = side_at((start + end - 1) / 2, s0, n0, up_camera);
+      std::fill(side + start, side + end, static_cast<std::int8_t>(value));
+    }
+    start = end;
+  }
+  for (int i = 0; i < n; ++i) {
+    const int near = static_cast<int>(std::floor(roots[i]));
+    for (int u = std::max(near - 1, 0); u <= std::min(near + 2, width_ - 1); ++u) {
+      side[u] = static_cast<std::int8_t>(side_at(u, s0, n0, up_camera));
+    }
   }
 }
 
@@ -117,31 +162,38 @@ void SkyFilter::join(int a, int b) {
 
 bool SkyFilter::add_runs(int v, const std::uint16_t* depth_row, const std::uint8_t* flags,
                          const std::int8_t* side) {
-  const auto live = [&](int u) {
-    return open_[static_cast<std::size_t>(u)] != 0 && depth_row[u] == 0 && flags[u] != 0;
-  };
+  // Live: an open column's candidate. One pass of byte arithmetic that vectorises.
+  std::uint8_t* live = live_.get();
+  for (int u = 0; u < width_; ++u) {
+    live[u] = static_cast<std::uint8_t>(open_[static_cast<std::size_t>(u)] &
+                                        (depth_row[u] == 0 ? 1 : 0) & flags[u]);
+  }
   int count = row_first_[static_cast<std::size_t>(v)];
-  const int previous_first = v > 0 ? row_first_[static_cast<std::size_t>(v) - 1] : count;
-  int previous = previous_first;
+  const int previous_end = count;
+  int previous = v > 0 ? row_first_[static_cast<std::size_t>(v) - 1] : count;
   for (int u = 0; u < width_;) {
-    if (!live(u)) {
+    if (live[u] == 0) {
       ++u;
       continue;
     }
     if (count == max_runs_) return false;
     const int begin = u;
-    std::uint8_t reach = 0;
-    for (; u < width_ && live(u); ++u) {
-      reach |= side[u] > 0 ? kHigh : (side[u] < 0 ? kLow : 0);
+    // The run's end: the next 0 byte (memchr scans many bytes at a time).
+    const void* zero = std::memchr(live + u, 0, static_cast<std::size_t>(width_ - u));
+    u = zero == nullptr ? width_ : static_cast<int>(static_cast<const std::uint8_t*>(zero) - live);
+    std::int8_t highest = -1, lowest = 1;
+    for (int k = begin; k < u; ++k) {
+      highest = std::max(highest, side[k]);
+      lowest = std::min(lowest, side[k]);
     }
+    const unsigned reach = (highest > 0 ? kHigh : 0u) | (lowest < 0 ? kLow : 0u);
     const auto r = static_cast<std::size_t>(count);
     run_begin_[r] = static_cast<std::int16_t>(begin);
     run_end_[r] = static_cast<std::int16_t>(u);
     parent_[r] = count;
-    region_[r] = reach;
+    region_[r] = static_cast<std::uint8_t>(reach);
     // The previous row's runs touching this one (8-connected): [pb, pe) meets
     // [begin, u) when pb <= u and begin <= pe. Both rows are sorted by column.
-    const int previous_end = row_first_[static_cast<std::size_t>(v)];
     while (previous < previous_end && run_end_[static_cast<std::size_t>(previous)] < begin) {
       ++previous;
     }
@@ -215,10 +267,19 @@ void SkyFilter::scan(const std::uint16_t* depth, const std::uint8_t* left,
       }
       break;
     }
+    // add_runs left each open column's candidates in live_.
+    const std::uint8_t* live = live_.get();
+    const std::uint8_t* open = open_.get();
+    std::int16_t* gap = pending_gap_.get();
     for (int u = 0; u < w; ++u) {
-      if (open_[static_cast<std::size_t>(u)] == 0) continue;
-      const bool measured = depth_row[u] != 0;
-      step_column(u, v, measured, !measured && flags[u] != 0, side[u]);
+      if (open[u] == 0) continue;
+      const auto c = static_cast<std::size_t>(u);
+      // The common case, a candidate continuing its column's run, on the spot.
+      if (live[u] != 0 && run_start_[c] != kNone && side[u] >= 0) {
+        gap[u] = 0;
+        continue;
+      }
+      step_column(u, v, depth_row[u] != 0, live[u] != 0, side[u]);
     }
   }
   scanned_rows_ = v;

@@ -61,7 +61,9 @@ class SkyFilter {
   std::size_t reserved_bytes() const;
 
  private:
-  // -1 below the horizon - margin, +1 above the horizon + margin, 0 between.
+  // -1 below the horizon - margin, +1 above the horizon + margin, 0 between: of
+  // one pixel (with the row's s0 = up.y y + up.z and n0 = y² + 1), and of a whole row.
+  int side_at(int u, float s0, float n0, const Eigen::Vector3f& up_camera) const;
   void side_row(int v, const Eigen::Vector3f& up_camera, std::int8_t* side) const;
   // The row's runs of candidates in open columns, joined to the previous row's.
   bool add_runs(int v, const std::uint16_t* depth_row, const std::uint8_t* flags,
@@ -92,6 +94,7 @@ class SkyFilter {
   static constexpr std::uint8_t kHigh = 1, kLow = 2;
   std::unique_ptr<std::uint8_t[]> rows_;  // candidate_row's three rows
   std::unique_ptr<std::int8_t[]> side_;   // side_row's
+  std::unique_ptr<std::uint8_t[]> live_;  // add_runs' open columns' candidates
   int open_columns_ = 0;
   int scanned_rows_ = 0;
   int sky_rows_ = 0;

@@ -89,6 +89,14 @@ SkyCounts mark_sky(const std::uint16_t* __restrict raw_row, const std::uint8_t* 
   return {static_cast<std::uint16_t>(sky), static_cast<std::uint16_t>(candidates - sky)};
 }
 
+// Missing pixels flagged bright and flat, in a row where nothing is sky.
+std::uint16_t count_candidates(const std::uint16_t* __restrict raw_row,
+                               const std::uint8_t* __restrict flags, int width) {
+  int candidates = 0;
+  for (int u = 0; u < width; ++u) candidates += (raw_row[u] == 0 ? 1 : 0) & flags[u];
+  return static_cast<std::uint16_t>(candidates);
+}
+
 // The first raw depth whose float depth (raw * depth_to_m, as the reference path
 // computes it) reaches `limit` (>= when inclusive, > otherwise); 0x10000 when
 // none in 16 bits does.
@@ -275,9 +283,14 @@ Mapper::DepthCounts Mapper::classify_rows(const DepthFrameView& frame, int first
     // scan left their column open: free up to d_max.
     if (row.missing > 0 && sky_filter) {
       sky_.candidate_row(frame.left, v, sky_flags);
-      std::uint8_t* sky_mask = sky_flags + frame.width;  // candidate_row's scratch, free now
-      sky_.sky_mask_row(v, sky_mask);
-      const SkyCounts row_sky = mark_sky(depth_row, sky_flags, sky_mask, out, frame.width);
+      SkyCounts row_sky;
+      if (v < sky_.sky_rows()) {
+        std::uint8_t* sky_mask = sky_flags + frame.width;  // candidate_row's scratch, free now
+        sky_.sky_mask_row(v, sky_mask);
+        row_sky = mark_sky(depth_row, sky_flags, sky_mask, out, frame.width);
+      } else {
+        row_sky.refused = count_candidates(depth_row, sky_flags, frame.width);
+      }
       counts.sky += row_sky.sky;
       counts.sky_refused += row_sky.refused;
       counts.missing -= row_sky.sky;

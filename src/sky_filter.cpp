@@ -22,6 +22,7 @@ SkyFilter::SkyFilter(const SkyFilterConfig& config, const CameraModel& camera)
       pending_start_(new std::int16_t[static_cast<std::size_t>(width_)]()),
       pending_gap_(new std::int16_t[static_cast<std::size_t>(width_)]()),
       open_(new std::uint8_t[static_cast<std::size_t>(width_)]()),
+      limited_(new std::uint8_t[static_cast<std::size_t>(width_)]()),
       run_begin_(new std::int16_t[static_cast<std::size_t>(max_runs_)]()),
       run_end_(new std::int16_t[static_cast<std::size_t>(max_runs_)]()),
       row_first_(new std::int32_t[static_cast<std::size_t>(height_) + 1]()),
@@ -37,7 +38,7 @@ SkyFilter::SkyFilter(const SkyFilterConfig& config, const CameraModel& camera)
 std::size_t SkyFilter::reserved_bytes() const {
   const auto w = static_cast<std::size_t>(width_);
   const auto runs = static_cast<std::size_t>(max_runs_);
-  return w * (4 * sizeof(std::int16_t) + 1 + 3 + 1 + 1) +
+  return w * (4 * sizeof(std::int16_t) + 2 + 3 + 1 + 1) +
          runs * (2 * sizeof(std::int16_t) + 2 * sizeof(std::int32_t) + 1) +
          (static_cast<std::size_t>(height_) + 1) * sizeof(std::int32_t);
 }
@@ -208,6 +209,10 @@ bool SkyFilter::add_runs(int v, const std::uint16_t* depth_row, const std::uint8
 
 void SkyFilter::close(int u, int limit) {
   limit_[static_cast<std::size_t>(u)] = static_cast<std::int16_t>(limit);
+  limited_[static_cast<std::size_t>(u)] = 1;
+}
+
+void SkyFilter::stop_tracking(int u) {
   open_[static_cast<std::size_t>(u)] = 0;
   --open_columns_;
 }
@@ -250,6 +255,7 @@ void SkyFilter::scan(const std::uint16_t* depth, const std::uint8_t* left,
   std::fill_n(pending_start_.get(), w, kNone);
   std::fill_n(pending_gap_.get(), w, std::int16_t{0});
   std::fill_n(open_.get(), w, std::uint8_t{1});
+  std::fill_n(limited_.get(), w, std::uint8_t{0});
   std::fill_n(limit_.get(), w, static_cast<std::int16_t>(height_));
   open_columns_ = w;
   row_first_[0] = 0;
@@ -263,23 +269,30 @@ void SkyFilter::scan(const std::uint16_t* depth, const std::uint8_t* left,
     if (!add_runs(v, depth_row, flags, side)) {
       // Out of run storage: nothing from this row down is taken for sky.
       for (int u = 0; u < w; ++u) {
-        if (open_[static_cast<std::size_t>(u)] != 0) close(u, v);
+        if (limited_[static_cast<std::size_t>(u)] == 0) close(u, v);
       }
       break;
     }
     // add_runs left each open column's candidates in live_.
     const std::uint8_t* live = live_.get();
     const std::uint8_t* open = open_.get();
+    const std::uint8_t* limited = limited_.get();
     std::int16_t* gap = pending_gap_.get();
     for (int u = 0; u < w; ++u) {
       if (open[u] == 0) continue;
       const auto c = static_cast<std::size_t>(u);
-      // The common case, a candidate continuing its column's run, on the spot.
-      if (live[u] != 0 && run_start_[c] != kNone && side[u] >= 0) {
-        gap[u] = 0;
-        continue;
+      if (limited[u] == 0) {
+        // The common case, a candidate continuing its column's run, on the spot.
+        if (live[u] != 0 && run_start_[c] != kNone && side[u] >= 0) {
+          gap[u] = 0;
+          continue;
+        }
+        step_column(u, v, depth_row[u] != 0, live[u] != 0, side[u]);
       }
-      step_column(u, v, depth_row[u] != 0, live[u] != 0, side[u]);
+      // A column whose limit is known still joins its candidates into regions
+      // down to the horizon - margin: a white facade cut by window rows reaches
+      // its foot through the piers between them (c).
+      if (limited[u] != 0 && side[u] < 0) stop_tracking(u);
     }
   }
   scanned_rows_ = v;
@@ -290,9 +303,17 @@ void SkyFilter::scan(const std::uint16_t* depth, const std::uint8_t* left,
     parent_[k] = parent_[static_cast<std::size_t>(parent_[k])];
     area_[k] = 0;
   }
-  for (int r = 0; r < runs; ++r) {
-    const auto k = static_cast<std::size_t>(r);
-    area_[static_cast<std::size_t>(parent_[k])] += run_end_[k] - run_begin_[k];
+  // (e) counts what could be sky: a region's pixels above their columns' limits.
+  for (int row = 0; row < v; ++row) {
+    const auto next = static_cast<std::size_t>(row) + 1;
+    for (int r = row_first_[next - 1]; r < row_first_[next]; ++r) {
+      const auto k = static_cast<std::size_t>(r);
+      int open_pixels = 0;
+      for (int u = run_begin_[k]; u < run_end_[k]; ++u) {
+        open_pixels += row < limit_[static_cast<std::size_t>(u)] ? 1 : 0;
+      }
+      area_[static_cast<std::size_t>(parent_[k])] += open_pixels;
+    }
   }
   sky_rows_ = std::min<int>(scanned_rows_, *std::max_element(limit_.get(), limit_.get() + w));
 }

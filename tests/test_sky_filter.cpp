@@ -4,6 +4,7 @@
 // Then pixel by pixel on generated flights against the renderer's truth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -114,7 +115,10 @@ TEST(SkyFilter, AWhiteWallUnderItsMeasuredRoofLineIsNotSky) {
     for (int v = 7; v < kH; ++v) EXPECT_FALSE(r.at(u, v)) << u << ", " << v;
     EXPECT_FALSE(r.at(u, 4)) << "sky resting on the roof line";
   }
-  EXPECT_TRUE(r.at(5, 10)) << "the sky beside the wall";
+  // The wall is as bright as the sky and touches it beside the roof line: one
+  // region, which reaches below the horizon at the wall's foot: the sky beside
+  // it is refused with it (unknown, never free).
+  EXPECT_FALSE(r.at(5, 10)) << "the sky joined to the wall";
 }
 
 TEST(SkyFilter, AWhiteSurfaceThatReachesBelowTheHorizonIsNotSky) {
@@ -138,6 +142,24 @@ TEST(SkyFilter, AWhiteSurfaceThatReachesBelowTheHorizonIsNotSky) {
     for (int v = 7; v < kH; ++v) EXPECT_FALSE(apart.at(u, v)) << u << ", " << v;
   EXPECT_TRUE(apart.at(5, 10));
   EXPECT_TRUE(apart.at(50, 20));
+}
+
+TEST(SkyFilter, AWhiteFacadeCutByWindowRowsIsNotSkyAboveThem) {
+  // As bright as the sky above it; two rows of dark, unmatched windows, staggered
+  // so that every column meets one, close every column above the foot, but the
+  // wall between them joins the facade above to its foot below the horizon: one
+  // region, refused whole.
+  Frame f = open_field();
+  f.white(20, 40, 0, 34);
+  for (int u = 20; u < 40; u += 8) {
+    f.textured(u + 2, u + 6, 12, 18, 0);
+    f.textured(u, u + 2, 22, 28, 0);
+    f.textured(u + 6, std::min(u + 8, 40), 22, 28, 0);
+  }
+  f.textured(20, 40, 34, kH, 15000);
+  const SkyResult r = run(f, up_in_camera());
+  for (int u = 20; u < 40; ++u)
+    for (int v = 0; v < kH; ++v) EXPECT_FALSE(r.at(u, v)) << u << ", " << v;
 }
 
 TEST(SkyFilter, ABrightRunRestingOnAMeasuredSurfaceIsNotSky) {

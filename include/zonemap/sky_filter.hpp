@@ -20,8 +20,8 @@
 // Everything else without depth stays unknown, never free (docs/sky.md: why this
 // is safe, and what it cannot tell apart).
 //
-// scan() walks the rows from the top until every column is closed (a measured
-// pixel, or the horizon - margin passed), keeping each row's candidate runs and
+// scan() walks the rows from the top until every column has its limit (rules a,
+// d) and lies below the horizon - margin, keeping each row's candidate runs and
 // joining them into regions (union-find); sky_mask_row() then gives any scanned
 // row's sky pixels. Memory is reserved for kRunsPerRow runs a row on average; a
 // frame with more stops storing there and takes nothing further down for sky.
@@ -70,7 +70,9 @@ class SkyFilter {
                 const std::int8_t* side);
   // Rules (a) and (d), and when a column closes, for one pixel of an open column.
   void step_column(int u, int v, bool measured, bool candidate, int side);
+  // Sets the column's limit (rules a, d); stop_tracking ends its regions' scan.
   void close(int u, int limit);
+  void stop_tracking(int u);
   int root(int run) const;
   void join(int a, int b);
 
@@ -83,7 +85,7 @@ class SkyFilter {
   // column's current run of candidates (first row), a run that ended at most
   // max_gap_px rows ago (its first row), and the rows since the last candidate.
   std::unique_ptr<std::int16_t[]> limit_, run_start_, pending_start_, pending_gap_;
-  std::unique_ptr<std::uint8_t[]> open_;
+  std::unique_ptr<std::uint8_t[]> open_, limited_;  // still scanned; limit known
   // Candidate runs, row by row: runs of row v are [row_first_[v], row_first_[v+1]).
   std::unique_ptr<std::int16_t[]> run_begin_, run_end_;
   std::unique_ptr<std::int32_t[]> row_first_;

@@ -150,7 +150,9 @@ Reader mavlink_output(const std::string& path, VehicleConfig* c) {
   return [path, c](const YAML::Node& node) {
     c->mavlink_output = true;
     hal::read_section(path, node, "outputs.mavlink",
-                      {{"host", into(&c->mavlink.host)},
+                      {{"autopilot", into(&c->mavlink.autopilot)},
+                       {"messages", into(&c->mavlink.messages)},
+                       {"host", into(&c->mavlink.host)},
                        {"port", into(&c->mavlink.port)},
                        {"rate_hz", into(&c->mavlink.rate_hz)},
                        {"system_id", into(&c->mavlink.system_id)},

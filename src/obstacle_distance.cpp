@@ -36,13 +36,13 @@ double clockwise_angle(const Eigen::Vector2d& v) {
   return a;
 }
 
-// The sector holding a bearing (radians, clockwise from forward, any turn):
-// sector s covers [s - 1/2, s + 1/2) steps.
-int sector_of(double bearing) {
-  return static_cast<int>(std::floor(bearing / kStep + 0.5));
+// The wedge holding a bearing (radians, clockwise from forward, any turn), of
+// `step` radians each: wedge s covers [s - 1/2, s + 1/2) steps.
+int wedge_of(double bearing, double step) {
+  return static_cast<int>(std::floor(bearing / step + 0.5));
 }
-int wrap_sector(int s) {
-  return ((s % kObstacleSectors) + kObstacleSectors) % kObstacleSectors;
+int wrap_wedge(int s, int wedges) {
+  return ((s % wedges) + wedges) % wedges;
 }
 
 // Heights measured upwards whatever the world's convention.
@@ -58,14 +58,19 @@ bool in_band(const ObstacleBox& box, double vehicle_height, bool world_z_up,
   return h1 >= vehicle_height - config.band_below_m && h0 <= vehicle_height + config.band_above_m;
 }
 
-// Folds one world rectangle [lo, hi] (relative to the vehicle) into the sectors'
-// nearest distances. Returns false when the vehicle stands inside it.
-bool add_rectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, const HorizontalAxes& axes,
-                   double max_distance_m, double* nearest) {
+// Calls fn(wedge, point, distance) for each of `wedges` equal wedges about the
+// vehicle (wedge 0 centred straight ahead, numbered clockwise) that the world
+// rectangle [lo, hi] (relative to the vehicle) reaches into within
+// max_distance_m: its nearest point inside the wedge (world x-y, relative) and
+// that point's distance. Returns false when the vehicle stands inside it.
+template <typename Fn>
+bool for_each_wedge(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi,
+                    const HorizontalAxes& axes, int wedges, double max_distance_m, Fn&& fn) {
   const Eigen::Vector2d closest = lo.cwiseMax(Eigen::Vector2d::Zero()).cwiseMin(hi);
   const double closest_distance = closest.norm();
   if (closest_distance > max_distance_m) return true;
   if (closest_distance == 0.0) return false;
+  const double step = 2.0 * kPi / wedges;
   const auto to_body = [&](const Eigen::Vector2d& w) {
     const Eigen::Vector3d w3(w.x(), w.y(), 0.0);
     return Eigen::Vector2d(w3.dot(axes.forward), w3.dot(axes.right));
@@ -83,19 +88,26 @@ bool add_rectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, const H
       a_max = std::max(a_max, a);
     }
   }
-  const int closest_sector = wrap_sector(sector_of(closest_angle));
-  const int s_first = sector_of(closest_angle + a_min);
-  const int s_last = sector_of(closest_angle + a_max);
+  const int closest_wedge = wrap_wedge(wedge_of(closest_angle, step), wedges);
+  const int s_first = wedge_of(closest_angle + a_min, step);
+  const int s_last = wedge_of(closest_angle + a_max, step);
   for (int s_unwrapped = s_first; s_unwrapped <= s_last; ++s_unwrapped) {
-    const int s = wrap_sector(s_unwrapped);
+    const int s = wrap_wedge(s_unwrapped, wedges);
     // Nearest point inside the wedge: the closest point if its bearing is inside,
     // else where one of the wedge's edges enters the rectangle.
-    double d = s == closest_sector ? closest_distance : kInf;
-    for (const double edge : {(s_unwrapped - 0.5) * kStep, (s_unwrapped + 0.5) * kStep}) {
+    double d = kInf;
+    Eigen::Vector2d point = closest;
+    if (s == closest_wedge) d = closest_distance;
+    for (const double edge : {(s_unwrapped - 0.5) * step, (s_unwrapped + 0.5) * step}) {
       const Eigen::Vector3d dir3 = axes.forward * std::cos(edge) + axes.right * std::sin(edge);
-      d = std::min(d, ray_entry(Eigen::Vector2d(dir3.x(), dir3.y()), lo, hi));
+      const Eigen::Vector2d dir(dir3.x(), dir3.y());
+      const double t = ray_entry(dir, lo, hi);
+      if (t < d) {
+        d = t;
+        point = dir * t;
+      }
     }
-    nearest[s] = std::min(nearest[s], d);
+    if (d <= max_distance_m) fn(s, point, d);
   }
   return true;
 }
@@ -150,8 +162,11 @@ ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count
     for_each_rectangle(
         boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
           const Eigen::Vector2d p = position.head<2>();
-          if (!inside)
-            inside = !add_rectangle(lo - p, hi - p, axes, config.max_distance_m, nearest);
+          if (inside) return;
+          inside = !for_each_wedge(lo - p, hi - p, axes, kObstacleSectors, config.max_distance_m,
+                                   [&](int s, const Eigen::Vector2d&, double d) {
+                                     nearest[s] = std::min(nearest[s], d);
+                                   });
         });
   }
   if (inside) std::fill(std::begin(nearest), std::end(nearest), 0.0);  // everything is blocked
@@ -253,46 +268,113 @@ SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
   return observed;
 }
 
+namespace {
+
+// Keeps `o` in out[0 .. *n) (nearest first, at most capacity): the farthest
+// entry that is not protected gives way. False when o was not kept.
+bool keep_nearest(const NearestObstacle& o, NearestObstacle* out, std::size_t* n,
+                  std::size_t capacity) {
+  if (*n < capacity) {
+    out[(*n)++] = o;
+  } else if (*n > 0 && o.distance_m < out[*n - 1].distance_m) {
+    out[*n - 1] = o;
+  } else {
+    return false;
+  }
+  for (std::size_t i = *n - 1; i > 0 && out[i - 1].distance_m > out[i].distance_m; --i) {
+    std::swap(out[i - 1], out[i]);
+  }
+  return true;
+}
+
+}  // namespace
+
 std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
                               const FootprintView& footprints,
                               const Eigen::Isometry3d& world_T_body, bool world_z_up,
                               const SectorConfig& config, NearestObstacle* out,
-                              std::size_t capacity) {
+                              std::size_t capacity, int wedges) {
+  wedges = std::clamp(wedges, 1, kMaxObstacleWedges);
+  const HorizontalAxes axes = horizontal_axes(world_T_body, world_z_up);
+  const Eigen::Isometry3d body_T_world = world_T_body.inverse();
   const Eigen::Vector3d position = world_T_body.translation();
   const double vehicle_height = up_sign(world_z_up) * position.z();
+  // Each wedge's nearest point overall: kept whatever the capacity (up to one a
+  // wedge), so that no direction with an obstacle reads empty.
+  NearestObstacle wedge_nearest[kMaxObstacleWedges];
   std::size_t n = 0;
   for (std::size_t b = 0; b < count && capacity > 0; ++b) {
     const ObstacleBox& box = boxes[b];
     if (box.kind != FeatureKind::kObstacle || !in_band(box, vehicle_height, world_z_up, config)) {
       continue;
     }
-    Eigen::Vector3d best = Eigen::Vector3d::Zero();
-    double best_distance = kInf;
+    // The box's nearest horizontal point in each wedge, over its rectangles.
+    double horizontal[kMaxObstacleWedges];
+    Eigen::Vector2d point[kMaxObstacleWedges];
+    std::fill_n(horizontal, wedges, kInf);
+    bool inside = false;
     for_each_rectangle(
         boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
-          const Eigen::Vector3d lo3(lo.x(), lo.y(), box.min.z()), hi3(hi.x(), hi.y(), box.max.z());
-          const Eigen::Vector3d q = position.cwiseMax(lo3).cwiseMin(hi3);
-          const double d = (q - position).norm();
-          if (d < best_distance) {
-            best_distance = d;
-            best = q;
-          }
+          const Eigen::Vector2d p = position.head<2>();
+          inside = !for_each_wedge(lo - p, hi - p, axes, wedges, config.max_distance_m,
+                                   [&](int w, const Eigen::Vector2d& q, double d) {
+                                     if (d < horizontal[w]) {
+                                       horizontal[w] = d;
+                                       point[w] = q;
+                                     }
+                                   }) ||
+                   inside;
         });
-    if (best_distance > config.max_distance_m) continue;
-    NearestObstacle o;
-    o.id = box.id;
-    o.distance_m = best_distance;
-    o.body_frd = world_T_body.inverse() * best;
-    // Kept nearest first, at most `capacity`: the farthest kept gives way.
-    if (n < capacity) {
-      out[n++] = o;
-    } else if (best_distance < out[n - 1].distance_m) {
-      out[n - 1] = o;
-    } else {
-      continue;
+    // Heights: the box's nearest to the vehicle's.
+    const double z = std::clamp(position.z(), box.min.z(), box.max.z());
+    if (inside) {
+      // Over or under it (or in it): straight up or down, else blocked all round
+      // at the nearest distance an autopilot takes.
+      std::fill_n(horizontal, wedges, kInf);
+      const double dz = std::abs(z - position.z());
+      if (dz >= config.min_distance_m) {
+        horizontal[0] = 0.0;
+        point[0] = Eigen::Vector2d::Zero();
+      } else {
+        for (int w = 0; w < wedges; ++w) {
+          const double bearing = w * 2.0 * kPi / wedges;
+          const Eigen::Vector3d dir =
+              axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
+          horizontal[w] = config.min_distance_m;
+          point[w] = Eigen::Vector2d(dir.x(), dir.y()) * config.min_distance_m;
+        }
+      }
     }
-    for (std::size_t i = n - 1; i > 0 && out[i - 1].distance_m > out[i].distance_m; --i) {
-      std::swap(out[i - 1], out[i]);
+    for (int w = 0; w < wedges; ++w) {
+      if (horizontal[w] == kInf) continue;
+      const Eigen::Vector3d q(position.x() + point[w].x(), position.y() + point[w].y(),
+                              inside && horizontal[w] > 0.0 ? position.z() : z);
+      const double d = (q - position).norm();
+      if (d > config.max_distance_m) continue;
+      NearestObstacle o;
+      o.id = box.id;
+      o.wedge = w;
+      o.distance_m = d;
+      o.body_frd = body_T_world * q;
+      if (wedge_nearest[w].wedge < 0 || d < wedge_nearest[w].distance_m) wedge_nearest[w] = o;
+      keep_nearest(o, out, &n, capacity);
+    }
+  }
+  // A wedge whose nearest point gave way to nearer ones elsewhere takes the
+  // place of the farthest point that is not a wedge's nearest.
+  for (int w = 0; w < wedges; ++w) {
+    const NearestObstacle& o = wedge_nearest[w];
+    if (o.wedge < 0) continue;
+    const auto same = [&](const NearestObstacle& x) { return x.id == o.id && x.wedge == o.wedge; };
+    if (std::any_of(out, out + n, same)) continue;
+    for (std::size_t i = n; i-- > 0;) {
+      const NearestObstacle& x = out[i];
+      if (wedge_nearest[x.wedge].id == x.id && wedge_nearest[x.wedge].wedge == x.wedge) continue;
+      out[i] = o;
+      std::sort(out, out + n, [](const NearestObstacle& l, const NearestObstacle& r) {
+        return l.distance_m < r.distance_m;
+      });
+      break;
     }
   }
   return n;

@@ -147,7 +147,7 @@ std::string vehicle_yaml(const Flight& f, int mavlink_port, double replay_rate_h
     << "outputs:\n"
     << "  directory: " << (f.dir / "out") << "\n"
     << "  health_period_s: 0.5\n"
-    << "  mavlink: {host: 127.0.0.1, port: " << mavlink_port << ", rate_hz: 50}\n";
+    << "  mavlink: {autopilot: px4, host: 127.0.0.1, port: " << mavlink_port << ", rate_hz: 50}\n";
   return y.str();
 }
 
@@ -186,7 +186,12 @@ TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
        "poses: {source: can, ids: {info: 0x40000000}}\n",
        "vehicle.yaml:3: bad value for 'info'"},
       {"mapping: m.yaml\nframes: {source: replay, sequence: s}\noutputs: {mavlink: {port: x}}\n",
-       "vehicle.yaml:3: bad value for 'port'"}};
+       "vehicle.yaml:3: bad value for 'port'"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\noutputs: {mavlink: {port: 1}}\n",
+       "outputs.mavlink.autopilot must be ardupilot"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\n"
+       "outputs: {mavlink: {autopilot: px4, messages: 3d}}\n",
+       "PX4 reads no OBSTACLE_DISTANCE_3D"}};
   for (const auto& [text, expected] : bad) {
     std::ofstream(path) << text;
     EXPECT_FALSE(onboard::load_vehicle_config(path, &c, &error)) << text;

@@ -1,10 +1,14 @@
 // MAVLink framing as the autopilots read it: CRC check value, CRC_EXTRA from the
-// message definitions, OBSTACLE_DISTANCE, HEARTBEAT and OBSTACLE_DISTANCE_3D frames.
+// message definitions, OBSTACLE_DISTANCE, HEARTBEAT and OBSTACLE_DISTANCE_3D
+// frames; the sink's message set per autopilot.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 
+#include <vector>
+
+#include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
 #include "zonemap/obstacle_distance.hpp"
 
@@ -98,4 +102,136 @@ TEST(Mavlink, HeartbeatAndObstacle3dFrames) {
   EXPECT_EQ(buf[7] | buf[8] << 8 | buf[9] << 16, 11037);
   EXPECT_EQ(buf[10 + 27], mavlink::kFrameBodyFrd);
   EXPECT_EQ(buf[10 + 24] | buf[10 + 25] << 8, 42);
+}
+
+namespace {
+
+// The sink's datagrams, by message id, with OBSTACLE_DISTANCE_3D's fields read
+// back from their wire offsets.
+struct Captured final : mavlink::DatagramOut {
+  struct Point {
+    std::uint32_t time_boot_ms;
+    float x, y, z;
+    std::uint16_t id;
+  };
+  std::vector<std::uint32_t> ids;
+  std::vector<Point> points;
+  bool send(const std::uint8_t* d, std::size_t size, double) override {
+    const std::uint32_t id = d[7] | d[8] << 8 | d[9] << 16;
+    ids.push_back(id);
+    if (id == 11037 && size >= 12 + 28) {
+      Point p;
+      std::memcpy(&p.time_boot_ms, d + 10, 4);
+      std::memcpy(&p.x, d + 14, 4);
+      std::memcpy(&p.y, d + 18, 4);
+      std::memcpy(&p.z, d + 22, 4);
+      std::memcpy(&p.id, d + 34, 2);
+      points.push_back(p);
+    }
+    return true;
+  }
+  long count(std::uint32_t id) const { return std::count(ids.begin(), ids.end(), id); }
+};
+
+ObstacleBox post(std::uint32_t id, double north, double east) {
+  ObstacleBox b;
+  b.id = id;
+  b.min = {north - 0.5, east - 0.5, -20};
+  b.max = {north + 0.5, east + 0.5, 0};
+  return b;
+}
+
+hal::ObstacleUpdate update_of(const ObstacleBox* boxes, std::size_t count, double time_s) {
+  hal::ObstacleUpdate u;
+  u.time_s = time_s;
+  u.world_z_up = false;  // NED, the vehicle at the origin 10 m up, heading north
+  u.world_T_body.translation() = Eigen::Vector3d(0, 0, -10);
+  u.boxes = boxes;
+  u.count = count;
+  u.sectors_observed.fill(true);
+  return u;
+}
+
+mavlink::MavlinkUdpConfig config_for(const char* autopilot, const char* messages = "") {
+  mavlink::MavlinkUdpConfig c;
+  c.autopilot = autopilot;
+  c.messages = messages;
+  c.rate_hz = 10;
+  return c;
+}
+
+}  // namespace
+
+TEST(MavlinkSink, ConfigNamesTheAutopilotAndNeverSendsBothKinds) {
+  EXPECT_NE(mavlink::validate(config_for("")).find("autopilot must be"), std::string::npos);
+  EXPECT_NE(mavlink::validate(config_for("apm")).find("autopilot must be"), std::string::npos);
+  EXPECT_NE(mavlink::validate(config_for("px4", "3d")).find("PX4 reads no"), std::string::npos);
+  EXPECT_NE(mavlink::validate(config_for("ardupilot", "both")).find("2d or 3d"), std::string::npos);
+  for (const char* ok : {"px4", "ardupilot"}) {
+    EXPECT_EQ(mavlink::validate(config_for(ok)), "");
+  }
+  EXPECT_EQ(mavlink::validate(config_for("ardupilot", "2d")), "");
+  mavlink::MavlinkUdpConfig few = config_for("ardupilot");
+  few.max_obstacles_3d = 4;  // fewer than ArduPilot's eight sectors
+  EXPECT_NE(mavlink::validate(few), "");
+}
+
+// ArduPilot replaces its whole boundary on each OBSTACLE_DISTANCE: its sink sends
+// scans of 3-D points alone, each under a time_boot_ms newer than the last.
+TEST(MavlinkSink, ArduPilotGetsScansOf3dPointsAloneEachUnderANewTime) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("ardupilot"), out);
+  const ObstacleBox posts[] = {post(5, 20, 0), post(9, 0, 15)};  // ahead, right
+  for (int i = 0; i < 5; ++i) {
+    const double now = 0.0001 * i;  // faster than a millisecond: times must still rise
+    sink.publish(update_of(posts, 2, now), now);
+    sink.tick(now + 0.2);
+  }
+  EXPECT_EQ(out.count(330), 0);  // no OBSTACLE_DISTANCE
+  ASSERT_FALSE(out.points.empty());
+  std::vector<std::uint32_t> scan_times;
+  for (const auto& p : out.points) {
+    if (scan_times.empty() || scan_times.back() != p.time_boot_ms) {
+      if (!scan_times.empty()) {
+        EXPECT_GT(p.time_boot_ms, scan_times.back());
+      }
+      scan_times.push_back(p.time_boot_ms);
+    }
+  }
+  EXPECT_GE(scan_times.size(), 2u);
+  bool ahead = false, right = false;
+  for (const auto& p : out.points) {
+    ahead |= std::abs(p.x - 19.5f) < 0.01f && std::abs(p.y) < 0.6f;
+    right |= std::abs(p.y - 14.5f) < 0.01f && std::abs(p.x) < 0.6f;
+    EXPECT_NE(p.id, mavlink::kUnknownObstacleId);
+  }
+  EXPECT_TRUE(ahead);
+  EXPECT_TRUE(right);
+  EXPECT_NE(mavlink::obstacle_id_3d(5, 0), mavlink::obstacle_id_3d(9, 2));
+}
+
+// Nothing in range: one zero vector with the unknown id, so ArduPilot clears its
+// boundary on the new time and keeps the sensor healthy.
+TEST(MavlinkSink, AnEmptyScanIsOneZeroVectorWithTheUnknownId) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("ardupilot"), out);
+  sink.publish(update_of(nullptr, 0, 1.0), 1.0);
+  ASSERT_EQ(out.points.size(), 1u);
+  EXPECT_EQ(out.points[0].id, mavlink::kUnknownObstacleId);
+  EXPECT_EQ(out.points[0].x, 0.0f);
+  EXPECT_EQ(out.points[0].y, 0.0f);
+  EXPECT_EQ(out.points[0].z, 0.0f);
+  EXPECT_EQ(out.points[0].time_boot_ms, 1000u);
+}
+
+TEST(MavlinkSink, Px4AndArduPilot2dGetObstacleDistanceAlone) {
+  const ObstacleBox posts[] = {post(5, 20, 0)};
+  for (const char* messages : {"", "2d"}) {
+    Captured out;
+    mavlink::MavlinkUdpSink sink(config_for(*messages ? "ardupilot" : "px4", messages), out);
+    sink.publish(update_of(posts, 1, 1.0), 1.0);
+    sink.tick(1.15);
+    EXPECT_EQ(out.count(330), 2) << messages;
+    EXPECT_EQ(out.count(11037), 0) << messages;
+  }
 }

@@ -2,6 +2,7 @@
 // sectors unknown, footprints tighter than boxes, the exact wedge distance.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -144,6 +145,68 @@ TEST(ObstacleDistance, NearestObstaclesInTheBodyFrameNearestFirst) {
   EXPECT_NEAR(out[1].body_frd.y(), -30.0, 1e-9);  // left = negative right
   ASSERT_EQ(nearest_obstacles(boxes, 3, {}, body, false, config, out, 1), 1u);
   EXPECT_EQ(out[0].id, 9u);  // capacity 1 keeps the nearest
+}
+
+TEST(ObstacleDistance, AWallAcrossThreeWedgesGivesEachItsNearestPoint) {
+  // NED, heading north, 10 m up; a wall 10 m ahead from 20 m left to 20 m right
+  // spans ArduPilot's sectors 7 (-45), 0 and 1 (+45): one point in each.
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -10);
+  ObstacleBox wall = box({10, -20, -15}, {11, 20, 0});
+  wall.id = 5;
+  NearestObstacle out[8];
+  ASSERT_EQ(nearest_obstacles(&wall, 1, {}, body, false, config, out, 8, 8), 3u);
+  EXPECT_EQ(out[0].wedge, 0);
+  EXPECT_NEAR(out[0].body_frd.x(), 10.0, 1e-9);
+  EXPECT_NEAR(out[0].body_frd.y(), 0.0, 1e-9);
+  for (int k = 1; k < 3; ++k) {
+    // Where the wedge's near edge (22.5 deg) meets the wall.
+    EXPECT_NEAR(out[k].distance_m, 10.0 / std::cos(M_PI / 8), 1e-9);
+    EXPECT_NEAR(out[k].body_frd.x(), 10.0, 1e-9);
+    EXPECT_NEAR(std::abs(out[k].body_frd.y()), 10.0 * std::tan(M_PI / 8), 1e-9);
+    EXPECT_EQ(out[k].body_frd.y() > 0 ? 1 : 7, out[k].wedge);
+  }
+  // One wedge: the box's nearest point alone.
+  ASSERT_EQ(nearest_obstacles(&wall, 1, {}, body, false, config, out, 8), 1u);
+  EXPECT_NEAR(out[0].distance_m, 10.0, 1e-9);
+}
+
+TEST(ObstacleDistance, EveryWedgeWithAnObstacleKeepsItsNearestPointWhateverTheCapacity) {
+  // Eight posts close ahead and one far behind: with room for eight points the
+  // one behind still comes (in place of the farthest post ahead).
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -5);
+  ObstacleBox boxes[9];
+  for (int i = 0; i < 8; ++i) {
+    const double y = -4.0 + i;
+    boxes[i] = box({8.0 + i, y, -10}, {8.5 + i, y + 0.5, 0});
+    boxes[i].id = static_cast<std::uint32_t>(i + 1);
+  }
+  boxes[8] = box({-40, -1, -10}, {-39, 1, 0});
+  boxes[8].id = 99;
+  NearestObstacle out[8];
+  const std::size_t n = nearest_obstacles(boxes, 9, {}, body, false, config, out, 8, 8);
+  ASSERT_EQ(n, 8u);
+  EXPECT_TRUE(std::any_of(out, out + n, [](const NearestObstacle& o) { return o.id == 99; }));
+  EXPECT_EQ(out[n - 1].id, 99u);  // still nearest first
+  EXPECT_EQ(out[n - 1].wedge, 4);
+}
+
+TEST(ObstacleDistance, ABoxOverTheVehicleGivesThePointStraightAbove) {
+  SectorConfig config;
+  Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  body.translation() = Eigen::Vector3d(0, 0, -5);
+  const ObstacleBox roof = box({-3, -3, -8}, {3, 3, -7});  // 2 m above (NED)
+  NearestObstacle out[8];
+  ASSERT_EQ(nearest_obstacles(&roof, 1, {}, body, false, config, out, 8, 8), 1u);
+  EXPECT_NEAR(out[0].body_frd.z(), -2.0, 1e-9);  // up is -z in FRD
+  EXPECT_NEAR(out[0].body_frd.head<2>().norm(), 0.0, 1e-9);
+  // Inside it: a point at min_distance in every wedge.
+  const ObstacleBox around = box({-3, -3, -8}, {3, 3, 0});
+  ASSERT_EQ(nearest_obstacles(&around, 1, {}, body, false, config, out, 8, 8), 8u);
+  for (const NearestObstacle& o : out) EXPECT_NEAR(o.distance_m, config.min_distance_m, 1e-9);
 }
 
 TEST(ObstacleDistance, ExactWedgeDistanceAgreesWithDenseSampling) {

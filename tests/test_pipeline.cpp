@@ -508,6 +508,7 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   ASSERT_EQ(bind(receiver, reinterpret_cast<sockaddr*>(&bound), sizeof(bound)), 0);
   ASSERT_EQ(getsockname(receiver, reinterpret_cast<sockaddr*>(&bound), &bound_size), 0);
   mavlink::MavlinkUdpConfig mavlink_config;
+  mavlink_config.autopilot = "ardupilot";
   mavlink_config.port = ntohs(bound.sin_port);
   mavlink_config.rate_hz = 50;
   mavlink::MavlinkUdpSink mavlink(mavlink_config);

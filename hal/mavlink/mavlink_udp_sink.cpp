@@ -14,7 +14,25 @@ namespace zonemap::mavlink {
 
 static_assert(sizeof(sockaddr_in) <= 16);
 
+namespace {
+
+bool wants_3d(const MavlinkUdpConfig& c) {
+  return c.autopilot == "ardupilot" && c.messages != "2d";
+}
+
+}  // namespace
+
 std::string validate(const MavlinkUdpConfig& c) {
+  if (c.autopilot != "ardupilot" && c.autopilot != "px4") {
+    return "outputs.mavlink.autopilot must be ardupilot (OBSTACLE_DISTANCE_3D) or px4 "
+           "(OBSTACLE_DISTANCE): it decides which messages go, never both to one sensor";
+  }
+  if (!c.messages.empty() && c.messages != "2d" && c.messages != "3d") {
+    return "outputs.mavlink.messages must be 2d or 3d";
+  }
+  if (c.autopilot == "px4" && c.messages == "3d") {
+    return "outputs.mavlink.messages: PX4 reads no OBSTACLE_DISTANCE_3D; use 2d";
+  }
   if (!(c.rate_hz >= 5.0 && c.rate_hz <= 50.0)) {
     return "outputs.mavlink.rate_hz must be in [5, 50]: PX4 and ArduPilot drop obstacle data "
            "older than 0.5 s";
@@ -22,8 +40,10 @@ std::string validate(const MavlinkUdpConfig& c) {
   if (c.system_id < 1 || c.system_id > 255 || c.component_id < 1 || c.component_id > 255) {
     return "outputs.mavlink.system_id and component_id must be in [1, 255]";
   }
-  if (c.max_obstacles_3d < 0 || c.max_obstacles_3d > MavlinkUdpSink::kMaxObstacles3d) {
-    return "outputs.mavlink.obstacles_3d must be in [0, 64]";
+  if (c.max_obstacles_3d < kMaxObstacleWedges ||
+      c.max_obstacles_3d > MavlinkUdpSink::kMaxObstacles3d) {
+    return "outputs.mavlink.obstacles_3d must be in [8, 64] (a point for each of ArduPilot's "
+           "eight sectors at least)";
   }
   if (!(c.stale_after_s > 0.0 && c.stale_after_s <= 5.0)) {
     return "outputs.mavlink.stale_after_s must be in (0, 5]";
@@ -31,7 +51,8 @@ std::string validate(const MavlinkUdpConfig& c) {
   return {};
 }
 
-MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config) : config_(config) {
+MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config)
+    : config_(config), send_3d_(wants_3d(config)) {
   ids_.system_id = static_cast<std::uint8_t>(config.system_id);
   ids_.component_id = static_cast<std::uint8_t>(config.component_id);
 }
@@ -87,12 +108,17 @@ void MavlinkUdpSink::send(const std::uint8_t* frame, std::size_t size, double no
 void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   if (!can_send()) return;
   ++updates_;
-  distances_ =
-      obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
-                         update.world_z_up, config_.sectors, update.sectors_observed);
-  nearest_count_ = nearest_obstacles(update.boxes, update.count, update.footprints(),
-                                     update.world_T_body, update.world_z_up, config_.sectors,
-                                     nearest_, static_cast<std::size_t>(config_.max_obstacles_3d));
+  if (!send_3d_) {
+    distances_ =
+        obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
+                           update.world_z_up, config_.sectors, update.sectors_observed);
+  } else {
+    nearest_count_ = nearest_obstacles(
+        update.boxes, update.count, update.footprints(), update.world_T_body, update.world_z_up,
+        config_.sectors, nearest_,
+        static_cast<std::size_t>(std::clamp(config_.max_obstacles_3d, 0, kMaxObstacles3d)),
+        kMaxObstacleWedges);
+  }
   time_usec_ = static_cast<std::uint64_t>(std::llround(std::max(update.time_s, 0.0) * 1e6));
   update_s_ = now_s;
   if (now_s < next_send_s_) {
@@ -130,20 +156,39 @@ void MavlinkUdpSink::schedule_next(double now_s) {
 
 void MavlinkUdpSink::send_obstacles(double now_s) {
   schedule_next(now_s);
+  if (send_3d_) {
+    send_scan_3d(now_s);
+    return;
+  }
   std::uint8_t frame[kMaxFrameBytes];
   send(frame, encode_obstacle_distance(distances_, time_usec_, ids_, sequence_++, frame), now_s);
-  // One scan: every obstacle of this update shares its time_boot_ms.
-  const auto boot_ms = static_cast<std::uint32_t>(std::llround(std::max(now_s, 0.0) * 1000.0));
+  ++obstacle_distance_;
+}
+
+// One scan: every point shares a time_boot_ms newer than the last scan's (the
+// autopilot starts a new boundary on a new one), the messages back to back.
+void MavlinkUdpSink::send_scan_3d(double now_s) {
+  const auto now_ms = static_cast<std::uint32_t>(std::llround(std::max(now_s, 0.0) * 1000.0));
+  last_scan_ms_ = std::max(now_ms, last_scan_ms_ + 1);
+  ++scans_3d_;
+  Obstacle3d o;
+  o.time_boot_ms = last_scan_ms_;
+  o.min_distance = static_cast<float>(config_.sectors.min_distance_m);
+  o.max_distance = static_cast<float>(config_.sectors.max_distance_m);
+  std::uint8_t frame3d[12 + kObstacleDistance3dPayload];
+  if (nearest_count_ == 0) {
+    // Nothing in range: a zero vector, unknown id. The new time_boot_ms clears
+    // the boundary; the point itself is dropped; the sensor stays alive.
+    o.obstacle_id = kUnknownObstacleId;
+    send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d), now_s);
+    ++empty_scans_3d_;
+    return;
+  }
   for (std::size_t i = 0; i < nearest_count_; ++i) {
-    Obstacle3d o;
-    o.time_boot_ms = boot_ms;
-    o.obstacle_id = static_cast<std::uint16_t>(nearest_[i].id & 0xFFFF);
+    o.obstacle_id = obstacle_id_3d(nearest_[i].id, nearest_[i].wedge);
     o.x = static_cast<float>(nearest_[i].body_frd.x());
     o.y = static_cast<float>(nearest_[i].body_frd.y());
     o.z = static_cast<float>(nearest_[i].body_frd.z());
-    o.min_distance = static_cast<float>(config_.sectors.min_distance_m);
-    o.max_distance = static_cast<float>(config_.sectors.max_distance_m);
-    std::uint8_t frame3d[12 + kObstacleDistance3dPayload];
     send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d), now_s);
     ++obstacles_3d_;
   }
@@ -156,7 +201,10 @@ void MavlinkUdpSink::report(hal::HealthSnapshot* h) const {
   h->add("mavlink_out_resent", resent_);
   h->add("mavlink_out_stale", stale_);
   h->add("mavlink_out_heartbeats", heartbeats_);
+  h->add("mavlink_out_obstacle_distance", obstacle_distance_);
   h->add("mavlink_out_obstacles_3d", obstacles_3d_);
+  h->add("mavlink_out_scans_3d", scans_3d_);
+  h->add("mavlink_out_empty_scans_3d", empty_scans_3d_);
 }
 
 }  // namespace zonemap::mavlink

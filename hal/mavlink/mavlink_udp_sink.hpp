@@ -1,7 +1,17 @@
 // MAVLink to a MAVLink router or autopilot over UDP (e.g. mavlink-router's
-// 127.0.0.1:14550 on a companion computer): OBSTACLE_DISTANCE (72 sectors) and
-// OBSTACLE_DISTANCE_3D (the nearest obstacles) at `rate_hz` whatever the frame
-// rate, and HEARTBEAT at 1 Hz. Between map updates the newest one is sent again
+// 127.0.0.1:14550 on a companion computer): the obstacles at `rate_hz` whatever
+// the frame rate, as the configured autopilot reads them, and HEARTBEAT at 1 Hz.
+// One message kind to one proximity sensor, never both: ArduPilot replaces its
+// whole proximity boundary on each OBSTACLE_DISTANCE, so 3-D points the 2-D
+// sectors do not carry would be wiped on every tick.
+//  - ArduPilot, 3d (its default): one scan of OBSTACLE_DISTANCE_3D (BODY_FRD) a
+//    tick, back to back under one new time_boot_ms: each box's nearest point in
+//    each of ArduPilot's eight 45-degree sectors, nearest first, every sector's
+//    nearest kept; a scan with no obstacle is one zero vector (ArduPilot clears
+//    its boundary on the new time_boot_ms, drops the point and keeps the sensor
+//    healthy).
+//  - ArduPilot, 2d, and PX4 (which reads no 3-D message): OBSTACLE_DISTANCE
+//    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the newest one is sent again
 // on the output thread's tick, until it is `stale_after_s` old: then only the
 // heartbeat goes, and the autopilots' own timeouts (0.5 s) say the data is gone.
 // Non-blocking: a send that cannot go is counted.
@@ -16,12 +26,14 @@
 namespace zonemap::mavlink {
 
 struct MavlinkUdpConfig {
+  std::string autopilot;  // "ardupilot" or "px4": required (which messages go)
+  std::string messages;   // "3d" or "2d"; empty: the autopilot's own (ardupilot 3d, px4 2d)
   std::string host = "127.0.0.1";  // IPv4 address
   int port = 14550;
   double rate_hz = 10.0;       // OBSTACLE_DISTANCE(_3D); [5, 50]: both autopilots time out at 0.5 s
   int system_id = 1;           // our MAVLink system id (the vehicle's)
   int component_id = 195;      // MAV_COMP_ID_PATHPLANNER
-  int max_obstacles_3d = 16;   // OBSTACLE_DISTANCE_3D per update; 0 = none
+  int max_obstacles_3d = 32;   // OBSTACLE_DISTANCE_3D points a scan, [8, 64]
   double stale_after_s = 0.5;  // stop re-sending an update this old
   SectorConfig sectors;
 };
@@ -45,7 +57,11 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   ~MavlinkUdpSink() override;
   // False with the reason when the address is unusable.
   bool open(std::string* error);
-  const char* name() const override { return "MAVLink/UDP (OBSTACLE_DISTANCE, _3D, HEARTBEAT)"; }
+  const char* name() const override {
+    return send_3d_ ? "MAVLink/UDP for ArduPilot (OBSTACLE_DISTANCE_3D, HEARTBEAT)"
+                    : "MAVLink/UDP (OBSTACLE_DISTANCE, HEARTBEAT)";
+  }
+  bool sends_3d() const { return send_3d_; }
   void publish(const hal::ObstacleUpdate& update, double now_s) override;
   void tick(double now_s) override;
   void report(hal::HealthSnapshot* health) const override;
@@ -58,11 +74,13 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
 
  private:
   void send_obstacles(double now_s);
+  void send_scan_3d(double now_s);
   void schedule_next(double now_s);
   bool can_send() const { return fd_ >= 0 || out_ != nullptr; }
   void send(const std::uint8_t* frame, std::size_t size, double now_s);
 
   MavlinkUdpConfig config_;
+  bool send_3d_ = false;  // else OBSTACLE_DISTANCE
   LinkIds ids_;
   int fd_ = -1;
   DatagramOut* out_ = nullptr;
@@ -76,6 +94,8 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   double update_s_ = -1e300, next_send_s_ = -1e300, last_heartbeat_s_ = -1e300;
   std::int64_t sent_ = 0, failed_ = 0, rate_limited_ = 0, resent_ = 0, stale_ = 0;
   std::int64_t heartbeats_ = 0, obstacles_3d_ = 0, updates_ = 0;
+  std::int64_t obstacle_distance_ = 0, scans_3d_ = 0, empty_scans_3d_ = 0;
+  std::uint32_t last_scan_ms_ = 0;  // a scan's time_boot_ms: each new one greater
 };
 
 }  // namespace zonemap::mavlink

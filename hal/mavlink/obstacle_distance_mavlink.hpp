@@ -55,6 +55,14 @@ struct Obstacle3d {
   float x = 0, y = 0, z = 0;
   float min_distance = 0, max_distance = 0;
 };
+// An OBSTACLE_DISTANCE_3D obstacle_id: a box's point in one of ArduPilot's eight
+// sectors, the feature id's low 13 bits and the sector (stable while the feature
+// lives; distinct within a scan); UINT16_MAX for "unknown" (an empty scan).
+inline constexpr std::uint16_t kUnknownObstacleId = 0xFFFF;
+inline std::uint16_t obstacle_id_3d(std::uint32_t feature_id, int wedge) {
+  return static_cast<std::uint16_t>(((feature_id % 8191u) << 3) |
+                                    static_cast<std::uint32_t>(wedge & 7));
+}
 std::size_t encode_obstacle_distance_3d(const Obstacle3d& o, const LinkIds& ids,
                                         std::uint8_t sequence, std::uint8_t* buf);
 std::size_t encode_heartbeat(const LinkIds& ids, std::uint8_t sequence, std::uint8_t* buf);

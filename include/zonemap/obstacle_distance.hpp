@@ -82,10 +82,19 @@ SectorMask observed_sectors(const ZoneMap& zones, double cell_size_m,
                             const SectorConfig& config);
 
 // Nearest points of the nearest obstacles, for MAVLink OBSTACLE_DISTANCE_3D: per
-// obstacle box in range and in the band, the point of its footprint prisms (or
-// box) nearest to the vehicle, in the body frame (FRD), nearest first.
+// obstacle box in range and in the band, and per one of `wedges` equal horizontal
+// wedges about the vehicle (wedge 0 centred straight ahead, clockwise; ArduPilot's
+// proximity boundary has 8) that the box reaches into, the point of its footprint
+// prisms (or box) nearest to the vehicle there, in the body frame (FRD), nearest
+// first, at most `capacity` (one wedge: each box's nearest point). Each wedge's
+// nearest point overall is always among them (capacity >= wedges), so that a
+// direction with an obstacle never reads empty. A box over or under the vehicle
+// gives the point straight above or below; one holding it, a point at
+// min_distance in every wedge. Allocation-free, O(rectangles x wedges).
+inline constexpr int kMaxObstacleWedges = 8;
 struct NearestObstacle {
   std::uint32_t id = 0;  // the box's feature id (stable while the feature lives)
+  int wedge = -1;        // which wedge (0 with one)
   Eigen::Vector3d body_frd = Eigen::Vector3d::Zero();
   double distance_m = 0.0;
 };
@@ -93,7 +102,7 @@ std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
                               const FootprintView& footprints,
                               const Eigen::Isometry3d& world_T_body, bool world_z_up,
                               const SectorConfig& config, NearestObstacle* out,
-                              std::size_t capacity);
+                              std::size_t capacity, int wedges = 1);
 
 // The vehicle's forward and right axes in the world's horizontal plane, and down.
 struct HorizontalAxes {

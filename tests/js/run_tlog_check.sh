@@ -13,4 +13,5 @@ rm -rf "$work"
 "$sim" posts-through "$work/seq" --width 640 --rate 10 --frames 80 >/dev/null
 "$replay" "$work/seq" --config "$source/config/paper-flight3.yaml" --out "$work/run" --quiet \
   --no-record --links "$work/run/links" >/dev/null
-exec node "$source/tests/js/tlog_check.mjs" "$work/run/links/obstacles.tlog"
+node "$source/tests/js/tlog_check.mjs" "$work/run/links/obstacles.tlog" px4
+exec node "$source/tests/js/tlog_check.mjs" "$work/run/links/obstacles-ardupilot.tlog" ardupilot

@@ -2,10 +2,11 @@
 // time, 8 bytes big-endian microseconds) read by node-mavlink, an implementation
 // nobody on this project wrote: every packet's CRC good, the ids of the default
 // link, HEARTBEAT every second of flight time (or at the next map update: the
-// replay ticks the link only then), OBSTACLE_DISTANCE in the body frame with
-// an obstacle in it, stamps in time order.
+// replay ticks the link only then), stamps in time order; for PX4
+// OBSTACLE_DISTANCE alone, in the body frame with an obstacle in it; for
+// ArduPilot OBSTACLE_DISTANCE_3D alone, scans under rising times, points in range.
 //
-//   node tlog_check.mjs TLOG
+//   node tlog_check.mjs TLOG [px4|ardupilot]
 //
 // Exit 0: every check passed; 1: a check failed; 77: node-mavlink is not installed.
 import fs from 'node:fs';
@@ -23,6 +24,7 @@ const { MavLinkPacketSplitter, MavLinkPacketParser, minimal, common, ardupilotme
 const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY, ...ardupilotmega.REGISTRY };
 
 const bytes = fs.readFileSync(process.argv[2]);
+const autopilot = process.argv[3] ?? 'px4';
 const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
 
@@ -53,6 +55,9 @@ check(stamps.every((t, i) => i === 0 || t >= stamps[i - 1]), 'stamps out of time
 
 const counts = { HEARTBEAT: 0, OBSTACLE_DISTANCE: 0, OBSTACLE_DISTANCE_3D: 0 };
 let withObstacle = 0;
+let points3d = 0;
+let scans3d = 0;
+let lastScanMs = -1;
 const beats = [];
 packets.forEach((p, i) => {
   check(p.header.sysid === 1 && p.header.compid === 195, `ids ${p.header.sysid}/${p.header.compid}`);
@@ -60,6 +65,21 @@ packets.forEach((p, i) => {
   if (!clazz) { check(false, `unknown message ${p.header.msgid}`); return; }
   counts[clazz.MSG_NAME] = (counts[clazz.MSG_NAME] ?? 0) + 1;
   if (clazz.MSG_NAME === 'HEARTBEAT') beats.push(stamps[i]);
+  if (clazz.MSG_NAME === 'OBSTACLE_DISTANCE_3D') {
+    const d = p.protocol.data(p.payload, clazz);
+    check(d.frame === 12, `OBSTACLE_DISTANCE_3D frame ${d.frame} (MAV_FRAME_BODY_FRD is 12)`);
+    if (d.timeBootMs !== lastScanMs) {
+      check(d.timeBootMs > lastScanMs, `scan time ${d.timeBootMs} ms after ${lastScanMs} ms`);
+      lastScanMs = d.timeBootMs;
+      scans3d += 1;
+    }
+    const range = Math.hypot(d.x, d.y, d.z);
+    if (d.obstacleId !== 65535) {
+      check(range >= d.minDistance && range <= d.maxDistance, `a 3-D point at ${range.toFixed(1)} m out of range`);
+      points3d += 1;
+    }
+    return;
+  }
   if (clazz.MSG_NAME !== 'OBSTACLE_DISTANCE') return;
   const d = p.protocol.data(p.payload, clazz);
   check(d.frame === 12, `OBSTACLE_DISTANCE frame ${d.frame} (MAV_FRAME_BODY_FRD is 12)`);
@@ -69,11 +89,19 @@ packets.forEach((p, i) => {
 const span = stamps.length > 1 ? stamps[stamps.length - 1] - stamps[0] : 0;
 const beatGap = Math.max(0, ...beats.slice(1).map((t, i) => t - beats[i]));
 check(beats.length > 0 && beatGap <= 1.35, `heartbeat gap ${beatGap.toFixed(2)} s (updates every 0.3 s)`);
-check(counts.OBSTACLE_DISTANCE >= 5, `${counts.OBSTACLE_DISTANCE} OBSTACLE_DISTANCE`);
-check(withObstacle > 0, 'no OBSTACLE_DISTANCE with an obstacle in range');
+if (autopilot === 'px4') {
+  check(counts.OBSTACLE_DISTANCE >= 5, `${counts.OBSTACLE_DISTANCE} OBSTACLE_DISTANCE`);
+  check(withObstacle > 0, 'no OBSTACLE_DISTANCE with an obstacle in range');
+  check(counts.OBSTACLE_DISTANCE_3D === 0, `${counts.OBSTACLE_DISTANCE_3D} OBSTACLE_DISTANCE_3D to PX4`);
+} else {
+  check(scans3d >= 5, `${scans3d} OBSTACLE_DISTANCE_3D scans`);
+  check(points3d > 0, 'no OBSTACLE_DISTANCE_3D point');
+  check(counts.OBSTACLE_DISTANCE === 0, `${counts.OBSTACLE_DISTANCE} OBSTACLE_DISTANCE to ArduPilot`);
+}
 console.log(`node-mavlink: ${packets.length} packets, ${invalid} bad CRC over ${span.toFixed(1)} s; ` +
   `HEARTBEAT ${counts.HEARTBEAT}, OBSTACLE_DISTANCE ${counts.OBSTACLE_DISTANCE} ` +
-  `(${withObstacle} with an obstacle), OBSTACLE_DISTANCE_3D ${counts.OBSTACLE_DISTANCE_3D}`);
+  `(${withObstacle} with an obstacle), OBSTACLE_DISTANCE_3D ${counts.OBSTACLE_DISTANCE_3D} ` +
+  `(${points3d} points in ${scans3d} scans)`);
 if (failures.length > 0) {
   console.log(failures.join('\n'));
   process.exit(1);

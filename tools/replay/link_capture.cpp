@@ -10,7 +10,8 @@ bool LinkCapture::open(const std::string& dir, const CameraModel& camera,
   std::filesystem::create_directories(dir, ec);
   if (!candump_.open(dir + "/obstacles.candump", "can0", error) ||
       !lcm_log_.open(dir + "/obstacles.lcmlog", error) ||
-      !tlog_.open(dir + "/obstacles.tlog", error)) {
+      !tlog_.open(dir + "/obstacles.tlog", error) ||
+      !tlog_ardupilot_.open(dir + "/obstacles-ardupilot.tlog", error)) {
     return false;
   }
   can_ = std::make_unique<can::CanObstacleSink>(candump_, can::ObstacleCanConfig{}, max_boxes);
@@ -21,7 +22,10 @@ bool LinkCapture::open(const std::string& dir, const CameraModel& camera,
   lcm_ = std::make_unique<lcm_link::LcmObstacleSink>(lcm, lcm_log_);
   mavlink::MavlinkUdpConfig mavlink;
   mavlink.sectors = sectors;
+  mavlink.autopilot = "px4";
   mavlink_ = std::make_unique<mavlink::MavlinkUdpSink>(mavlink, tlog_);
+  mavlink.autopilot = "ardupilot";
+  mavlink_ardupilot_ = std::make_unique<mavlink::MavlinkUdpSink>(mavlink, tlog_ardupilot_);
   return true;
 }
 
@@ -32,12 +36,15 @@ void LinkCapture::publish(const hal::ObstacleUpdate& update, double time_s) {
   lcm_->tick(time_s);
   mavlink_->publish(update, time_s);
   mavlink_->tick(time_s);
+  mavlink_ardupilot_->publish(update, time_s);
+  mavlink_ardupilot_->tick(time_s);
 }
 
 void LinkCapture::close() {
   candump_.close();
   lcm_log_.close();
   tlog_.close();
+  tlog_ardupilot_.close();
 }
 
 }  // namespace zonemap::tools

@@ -2,7 +2,8 @@
 // user can open with the links' own tools: the obstacle CAN frames as a candump
 // log (`canplayer`, a DBC viewer), the LCM messages as an LCM event log
 // (`lcm-logplayer`, lcm-spy), the MAVLink messages as a telemetry log (.tlog:
-// MAVProxy, QGroundControl, pymavlink). The sinks are the daemon's, with default
+// MAVProxy, QGroundControl, pymavlink), as PX4 reads them (OBSTACLE_DISTANCE) and
+// as ArduPilot does (OBSTACLE_DISTANCE_3D scans). The sinks are the daemon's, with default
 // settings; every message is stamped with the mapped frame's time, so the files
 // of one sequence are the same on every run.
 #pragma once
@@ -25,7 +26,8 @@ namespace zonemap::tools {
 
 class LinkCapture {
  public:
-  // DIR/obstacles.candump, DIR/obstacles.lcmlog, DIR/obstacles.tlog.
+  // DIR/obstacles.candump, DIR/obstacles.lcmlog, DIR/obstacles.tlog (PX4),
+  // DIR/obstacles-ardupilot.tlog.
   bool open(const std::string& dir, const CameraModel& camera, const SectorConfig& sectors,
             std::size_t max_boxes, std::string* error);
   // One map update to every link, then each link's periodic work.
@@ -36,10 +38,10 @@ class LinkCapture {
  private:
   can::CandumpWriter candump_;
   lcm_link::LcmLogWriter lcm_log_;
-  mavlink::TlogWriter tlog_;
+  mavlink::TlogWriter tlog_, tlog_ardupilot_;
   std::unique_ptr<can::CanObstacleSink> can_;
   std::unique_ptr<lcm_link::LcmObstacleSink> lcm_;
-  std::unique_ptr<mavlink::MavlinkUdpSink> mavlink_;
+  std::unique_ptr<mavlink::MavlinkUdpSink> mavlink_, mavlink_ardupilot_;
 };
 
 }  // namespace zonemap::tools

@@ -171,4 +171,163 @@ if (!check(exitCode === 0, `daemon exited ${exitCode}: ${daemonLog}`)) {
 }
 fs.writeFileSync(path.join(workDir, 'received.json'), JSON.stringify({ flightStart, flightEnd, scans, received },
   (k, v) => (typeof v === 'bigint' ? Number(v) : v)));
-console.log(`relayed ${relayed} datagrams, ${scans.length} scans; received ${received.length} messages`);
+console.log(`relayed ${relayed} datagrams in ${(flightEnd - flightStart).toFixed(1)} s, ${scans.length} scans; ` +
+  `received ${received.length} messages from ArduPilot`);
+
+// ---- Ground truth at the scan ArduPilot holds. A report arriving at time T shows
+// the scan before the newest one relayed by T (ArduPilot commits a scan's points
+// when the next time_boot_ms comes); the scan's time_boot_ms is the daemon's
+// clock, which the replay's frame times follow (offset measured 0.00 s by
+// Independent.MavlinkDecodedByNodeMavlinkMatchesGroundTruth).
+const objects = readObjects(path.join(sequence, 'objects.yaml'));
+const poses = readPoses(path.join(sequence, 'groundtruth.txt'));
+const cell = Number(/cell_size_m: ([0-9.]+)/.exec(fs.readFileSync(mappingConfig, 'utf8'))[1]);
+const sceneTime = (scan) => poses[0].t + scan.timeBootMs / 1000;
+const heldScanIndex = (at) => {
+  let newest = -1;
+  while (newest + 1 < scans.length && scans[newest + 1].at <= at) newest += 1;
+  return newest - 1;
+};
+const SECTOR = 45 * DEG;
+const sectorOf = (bearing) => Math.floor(bearing / SECTOR + 0.5) % 8;
+const sectorGap = (a, b) => Math.min((a - b + 8) % 8, (b - a + 8) % 8);
+const MAX_M = 50;
+// Each object's nearest point about the vehicle at a scene time: sector, metres.
+const truthAt = (t) => {
+  const pose = poseAt(poses, t);
+  return objects.map((o) => {
+    const near = nearestOnObject(o, pose.p[0], pose.p[1]);
+    return { name: o.name, sector: sectorOf(bearingOf(pose, near.x, near.y)), m: near.d };
+  });
+};
+// A reading may be nearer than the object by the box's inflation (blur and cell
+// rounding, 2 cells + 0.5 m: on the safe side), never farther by over 1 m.
+const NEARER_M = 2 * cell + 0.5;
+const FARTHER_M = 1.0;
+const rangeOk = (got, truth) => got >= truth - NEARER_M && got <= truth + FARTHER_M;
+// ArduPilot keeps a sector 1.2-1.8 s after the last point in it (measured; its
+// faces time out): a reading is right when an object stood there, at that
+// range, at some scan of the last 2 s.
+const HOLD_S = 2.0;
+const recentScans = (k) => {
+  const list = [];
+  for (let j = k; j >= 0 && sceneTime(scans[j]) >= sceneTime(scans[k]) - HOLD_S; j -= 1) list.push(j);
+  return list;
+};
+const explainedBy = (k, sector, metres) => recentScans(k).some((j) =>
+  truthAt(sceneTime(scans[j])).some((o) => sectorGap(o.sector, sector) <= 1 && rangeOk(metres, o.m)));
+// A sector holds its nearest object when the reading is never farther than the
+// object stands now, and nearer only by the inflation below the nearest any
+// object stood in that sector in the last HOLD_S.
+const heldAt = (k, sector, nowM, metres) => {
+  const nearest = Math.min(...recentScans(k).flatMap((j) =>
+    truthAt(sceneTime(scans[j])).filter((o) => o.sector === sector).map((o) => o.m)));
+  return metres <= nowM + FARTHER_M && metres >= nearest - NEARER_M;
+};
+// The map needs a moment to build a box: judged from 1 s after the first point.
+const firstPoint = scans.find((sc) => sc.points.some((p) => p.id !== 65535));
+check(firstPoint !== undefined, 'the daemon sent no obstacle point');
+const judgedFrom = firstPoint ? firstPoint.at + 1.0 : Infinity;
+
+// ---- DISTANCE_SENSOR: ArduPilot's eight sectors, sent together under one
+// time_boot_ms (a sector it does not send holds nothing)
+const rounds = new Map();
+for (const m of received.filter((x) => x.name === 'DISTANCE_SENSOR' && x.at >= judgedFrom && x.at <= flightEnd)) {
+  const round = rounds.get(m.data.timeBootMs) ?? { at: m.at, metres: new Array(8).fill(Infinity) };
+  if (m.data.currentDistance < m.data.maxDistance) round.metres[m.data.orientation] = m.data.currentDistance / 100;
+  rounds.set(m.data.timeBootMs, round);
+}
+let expected = 0;
+let held = 0;
+let readings = 0;
+let right = 0;
+let flickers = 0;
+const misses = [];
+const wrong = [];
+for (const round of rounds.values()) {
+  const k = heldScanIndex(round.at);
+  if (k < 0) continue;
+  const t = sceneTime(scans[k]);
+  // Each object in range, in its sector or one beside it (+-1 sector): at least
+  // as near as it stands (a nearer object in that sector hides it), and nearer
+  // only by the inflation below what stood in that sector of late.
+  for (const o of truthAt(t).filter((x) => x.m <= MAX_M - 1)) {
+    expected += 1;
+    const sectors = [o.sector, (o.sector + 1) % 8, (o.sector + 7) % 8];
+    if (sectors.some((c) => heldAt(k, c, o.m, round.metres[c]))) held += 1;
+    else misses.push(`${t.toFixed(1)} s: ${o.name} in sector ${o.sector} at ${o.m.toFixed(1)} m, ArduPilot ` +
+      sectors.map((c) => `${c}: ${round.metres[c].toFixed(1)}`).join(', '));
+    if (sectors.every((c) => round.metres[c] === Infinity)) flickers += 1;
+  }
+  round.metres.forEach((metres, sector) => {
+    if (metres === Infinity) return;
+    readings += 1;
+    if (explainedBy(k, sector, metres)) right += 1;
+    else wrong.push(`${t.toFixed(1)} s: sector ${sector} ${metres.toFixed(1)} m, nothing there`);
+  });
+}
+console.log(`DISTANCE_SENSOR, ${rounds.size} reports: objects in their sector (+-1) within -${NEARER_M.toFixed(1)}/+${FARTHER_M.toFixed(1)} m: ` +
+  `${held} of ${expected} (${flickers} read nothing); readings on an object: ${right} of ${readings}`);
+for (const line of [...misses.slice(0, 8), ...wrong.slice(0, 8)]) console.log(`  ${line}`);
+check(expected > 100, `only ${expected} object sightings to judge`);
+check(held >= 0.97 * expected, `${held} of ${expected} reports hold the object in its sector at its range`);
+check(flickers === 0, `${flickers} times an object in range read nothing in its sector and those beside it`);
+check(right >= 0.97 * readings, `${readings - right} of ${readings} sector readings where nothing stands`);
+
+// ---- ADSB_VEHICLE "OA_DB": the object database, about ArduPilot's own position and heading
+const EARTH_M = 6378137;
+let position = null;
+let yaw = null;
+let items = 0;
+let itemsRight = 0;
+const itemsWrong = [];
+const lastItemNear = new Map(); // object -> scene time of the last item on it
+let itemGaps = 0;
+let itemChecks = 0;
+let nextWindow = null;
+for (const m of received.filter((x) => x.at <= flightEnd)) {
+  if (m.name === 'GLOBAL_POSITION_INT') position = m.data;
+  if (m.name === 'ATTITUDE') yaw = m.data.yaw;
+  if (m.at < judgedFrom || position === null || yaw === null) continue;
+  const k = heldScanIndex(m.at);
+  if (k < 0) continue;
+  const t = sceneTime(scans[k]);
+  if (m.name === 'ADSB_VEHICLE' && m.data.callsign === 'OA_DB') {
+    const north = (m.data.lat - position.lat) * 1e-7 * DEG * EARTH_M;
+    const east = (m.data.lon - position.lon) * 1e-7 * DEG * EARTH_M * Math.cos(position.lat * 1e-7 * DEG);
+    const bearing = (((Math.atan2(east, north) - yaw) % (2 * Math.PI)) + 2 * Math.PI) % (2 * Math.PI);
+    const metres = Math.hypot(north, east);
+    items += 1;
+    if (explainedBy(k, sectorOf(bearing), metres)) itemsRight += 1;
+    else itemsWrong.push(`${t.toFixed(1)} s: item ${m.data.ICAOAddress} at ${(bearing / DEG).toFixed(0)} deg ${metres.toFixed(1)} m, nothing there`);
+    for (const o of truthAt(t)) {
+      if (sectorGap(o.sector, sectorOf(bearing)) <= 1 && rangeOk(metres, o.m)) lastItemNear.set(o.name, t);
+    }
+  }
+  // Every 2 s of flight, each object in range has had an item on it.
+  if (nextWindow === null) nextWindow = t + 2;
+  if (t >= nextWindow) {
+    for (const o of truthAt(t)) {
+      if (o.m > MAX_M - 1) continue;
+      itemChecks += 1;
+      if (!(lastItemNear.get(o.name) >= t - 2)) itemGaps += 1;
+    }
+    nextWindow = t + 2;
+  }
+}
+console.log(`OA_DB: ${itemsRight} of ${items} items on an object; objects without an item for 2 s: ${itemGaps} of ${itemChecks}`);
+for (const line of itemsWrong.slice(0, 8)) console.log(`  ${line}`);
+check(items > 20, `only ${items} OA_DB items`);
+check(itemsRight >= 0.95 * items, `${items - itemsRight} of ${items} OA_DB items where nothing stands`);
+check(itemGaps === 0, `${itemGaps} of ${itemChecks} times an object had no OA_DB item for 2 s`);
+
+// ---- Its health: no "No Data" while the daemon sent
+const noData = received.filter((m) => m.name === 'STATUSTEXT' && /PRX1: No Data/i.test(m.data.text) &&
+  m.at > flightStart + 2 && m.at < flightEnd);
+check(noData.length === 0, `ArduPilot said "${noData[0]?.data.text}" during the flight`);
+
+if (failures.length) {
+  console.log(`FAILED (${failures.length}):\n  ` + failures.join('\n  '));
+  process.exit(1);
+}
+console.log('PASSED: ArduPilot holds zonemap\'s obstacles where they stand');

@@ -102,10 +102,11 @@ CameraModel paper_camera(int width) {
 }
 
 std::vector<std::string> scenario_names() {
-  return {"bushes",         "treeline",     "posts-through", "posts-around", "out-and-back",
-          "treeline-dense", "hedge",        "hedge-beside",  "posts-high",   "crossing-car",
-          "parked-car",     "terrain-rise", "terrain-fall",  "white-wall",   "white-wall-beside",
-          "white-tower",    "white-van"};
+  return {"bushes",          "treeline",     "posts-through",  "posts-around",
+          "posts-staggered", "out-and-back", "treeline-dense", "hedge",
+          "hedge-beside",    "posts-high",   "crossing-car",   "parked-car",
+          "terrain-rise",    "terrain-fall", "white-wall",     "white-wall-beside",
+          "white-tower",     "white-van"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -162,6 +163,15 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
         s->trajectory.push_back({i / rate, look_pose(p, yaw, 10 * kDeg)});
       }
     }
+  } else if (name == "posts-staggered") {
+    // No mirror symmetry: a link that swapped left and right, or a sector off by
+    // one, puts a post where none stands.
+    s->description = "three posts staggered either side of the track, flown past";
+    s->config = "config/paper-flight2.yaml";
+    s->scene.cylinders.push_back({"post_right_near", Eigen::Vector2d(30.0, -2.5), 0.25, 0.0, 8.0});
+    s->scene.cylinders.push_back({"post_left", Eigen::Vector2d(40.0, 6.0), 0.25, 0.0, 8.0});
+    s->scene.cylinders.push_back({"post_right_far", Eigen::Vector2d(50.0, -9.0), 0.25, 0.0, 8.0});
+    s->trajectory = straight({0, 0, 3.0}, {60, 0, 3.0}, 4.0, 10 * kDeg, rate);
   } else if (name == "treeline-dense") {
     // A tree line as users fly it: 18 trees 5.2 m apart with 0.5-3 m gaps, 9-17 m
     // tall, approached from 70 m at 15-25 m altitude (first seen at 40-50 m, where

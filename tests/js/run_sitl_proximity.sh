@@ -1,0 +1,22 @@
+#!/bin/sh
+# ArduPilot (software in the loop) reading the daemon's obstacles, checked by
+# sitl_proximity.mjs on the posts-staggered flight (151 frames, 10 Hz, the
+# outdoor config), in a private network namespace: ArduPilot listens on every
+# interface. Exit 77 (skipped, with the reason) without ArduPilot's SITL build
+# (../shared/sitl beside the clone), Node.js, node-mavlink or a namespace.
+#   run_sitl_proximity.sh SIM DAEMON SOURCE_DIR SITL_DIR WORK_DIR
+set -e
+sim=$1 daemon=$2 source=$3 sitl=$4 work=$5
+if [ ! -x "$sitl/arducopter" ]; then
+  echo "SKIP: no ArduPilot SITL build at $sitl (the shared folder beside the clone holds it)"
+  exit 77
+fi
+if ! command -v node >/dev/null 2>&1; then
+  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
+  exit 77
+fi
+rm -rf "$work"
+mkdir -p "$work"
+"$sim" posts-staggered "$work/seq" --width 640 --rate 10 >/dev/null
+exec "$source/tests/netns/in_private_netns.sh" node "$source/tests/js/sitl_proximity.mjs" \
+  "$sitl" "$daemon" "$work/seq" "$source/config/paper-flight2.yaml" "$work/run"

@@ -88,7 +88,24 @@ bool VehicleDaemon::open_poses(std::string* error) {
           config.can_interface, config.can_profile, config.gate, mount,
           config.time_offset_s + can::SocketCanPoseSource::monotonic_offset());
       return true;
+    case Poses::kMavlink:
+      return open_mavlink_poses(error);
   }
+  return true;
+}
+
+// The autopilot's EKF over MAVLink: positions in its NED frame.
+bool VehicleDaemon::open_mavlink_poses(std::string* error) {
+  if (camera_.world_z_up) {
+    *error =
+        "poses.source mavlink gives the autopilot's NED frame: camera.yaml needs "
+        "world_z_up: false";
+    return false;
+  }
+  auto source = std::make_unique<mavlink::MavlinkPoseSource>(
+      config_.mavlink_poses, config_.gate, camera_.body_T_camera, config_.time_offset_s);
+  if (!source->open(error)) return false;
+  live_poses_ = std::move(source);
   return true;
 }
 
@@ -286,6 +303,9 @@ bool VehicleDaemon::write_outputs(std::string* error) {
   links.add("ins_link_errors", pose_counters_.link_errors);
   links.add("ins_reanchors", pose_counters_.gate.reanchors);
   links.add("ins_clock_steps", pose_counters_.gate.clock_steps);
+  links.add("ins_incomplete", pose_counters_.incomplete);
+  links.add("ins_time_syncs", pose_counters_.time_syncs);
+  links.add("ins_time_sync_steps", pose_counters_.time_sync_steps);
   for (int r = 0; r < static_cast<int>(InsRejection::kCount); ++r) {
     static const char* const kNames[] = {"ins_rejected_not_finite",  "ins_rejected_quaternion",
                                          "ins_rejected_flags",       "ins_rejected_time",

@@ -94,7 +94,11 @@ Reader poses_section(const std::string& path, VehicleConfig* c) {
                             {"lcm", [c] { c->poses = Poses::kLcm; }},
                             {"lcm_log", [c] { c->poses = Poses::kLcmLog; }},
                             {"can", [c] { c->poses = Poses::kCan; }},
-                            {"candump", [c] { c->poses = Poses::kCandump; }}})},
+                            {"candump", [c] { c->poses = Poses::kCandump; }},
+                            {"mavlink", [c] { c->poses = Poses::kMavlink; }}})},
+         {"mavlink_listen", into(&c->mavlink_poses.listen)},
+         {"autopilot_system_id", into(&c->mavlink_poses.autopilot_system_id)},
+         {"rate_hz", into(&c->mavlink_poses.rate_hz)},
          {"lcm_url", into(&c->lcm_url)},
          {"lcm_channel", into(&c->lcm_channel)},
          {"log", into(&c->pose_log_path)},
@@ -199,6 +203,10 @@ std::string missing_for_sources(const VehicleConfig& c) {
     return "rates and periods must be positive";
   }
   if (c.record_depth_every < 0) return "outputs.record.depth_every must be >= 0";
+  if (c.poses == Poses::kMavlink) {
+    const std::string why = mavlink::validate(c.mavlink_poses);
+    if (!why.empty()) return why;
+  }
   if (c.mavlink_output) return mavlink::validate(c.mavlink);
   return "";
 }

@@ -8,6 +8,7 @@
 #include "hal/can/ins_can.hpp"
 #include "hal/can/obstacle_can.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
+#include "hal/mavlink/mavlink_pose_source.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "zonemap/ins_gate.hpp"
 
@@ -25,7 +26,7 @@ struct VehicleConfig {
   std::string v4l2_device = "/dev/video0";
   std::string v4l2_format = "Y16";  // Y16 | Z16
 
-  enum class PoseSourceKind { kSequence, kLcm, kLcmLog, kCan, kCandump };
+  enum class PoseSourceKind { kSequence, kLcm, kLcmLog, kCan, kCandump, kMavlink };
   PoseSourceKind poses = PoseSourceKind::kSequence;
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
   std::string lcm_channel = "INS_STATE";
@@ -33,6 +34,7 @@ struct VehicleConfig {
   std::string can_interface = "can0";
   can::InsCanConfig can_profile;
   double time_offset_s = 0.0;  // added to INS / receive times to reach the frames' clock
+  mavlink::MavlinkPoseConfig mavlink_poses;  // poses.source mavlink: the autopilot's EKF
   InsGateConfig gate;
 
   std::string output_dir;  // boxes.csv and stats.json at shutdown (empty: none)

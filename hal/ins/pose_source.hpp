@@ -32,6 +32,8 @@ struct PoseSourceCounters {
   std::int64_t solutions = 0;    // complete INS solutions decoded
   std::int64_t poses_out = 0;    // accepted, handed to the mapper
   std::int64_t link_errors = 0;  // transport went down (reopened with backoff)
+  std::int64_t incomplete = 0;   // parts that made no solution (no partner, clock not synced)
+  std::int64_t time_syncs = 0, time_sync_steps = 0;  // source clock -> ours (MAVLink TIMESYNC)
   InsGateCounters gate;
 };
 

@@ -52,7 +52,9 @@ std::string validate(const MavlinkUdpConfig& c) {
 }
 
 MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config)
-    : config_(config), send_3d_(wants_3d(config)) {
+    : config_(config),
+      send_3d_(wants_3d(config)),
+      monitor_(static_cast<std::uint8_t>(config.system_id)) {
   ids_.system_id = static_cast<std::uint8_t>(config.system_id);
   ids_.component_id = static_cast<std::uint8_t>(config.component_id);
 }
@@ -128,8 +130,28 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
   send_obstacles(now_s);
 }
 
+void MavlinkUdpSink::receive(double now_s) {
+  std::uint8_t datagram[2048];
+  for (int i = 0; fd_ >= 0 && i < kMaxDatagramsPerTick; ++i) {
+    sockaddr_in from{};
+    socklen_t from_size = sizeof from;
+    const ssize_t n = ::recvfrom(fd_, datagram, sizeof datagram, MSG_DONTWAIT,
+                                 reinterpret_cast<sockaddr*>(&from), &from_size);
+    if (n < 0) break;  // nothing waiting (or an ICMP error reported on the socket)
+    sockaddr_in to{};
+    std::memcpy(&to, address_, sizeof to);
+    if (from.sin_addr.s_addr != to.sin_addr.s_addr || from.sin_port != to.sin_port) {
+      ++foreign_;
+      continue;
+    }
+    monitor_.on_datagram(datagram, static_cast<std::size_t>(n), now_s);
+  }
+  monitor_.update(now_s);
+}
+
 void MavlinkUdpSink::tick(double now_s) {
   if (!can_send()) return;
+  receive(now_s);
   if (now_s - last_heartbeat_s_ >= 1.0) {
     last_heartbeat_s_ = now_s;
     std::uint8_t frame[12 + kHeartbeatPayload];
@@ -205,6 +227,8 @@ void MavlinkUdpSink::report(hal::HealthSnapshot* h) const {
   h->add("mavlink_out_obstacles_3d", obstacles_3d_);
   h->add("mavlink_out_scans_3d", scans_3d_);
   h->add("mavlink_out_empty_scans_3d", empty_scans_3d_);
+  h->add("mavlink_in_foreign", foreign_);
+  monitor_.report(h);
 }
 
 }  // namespace zonemap::mavlink

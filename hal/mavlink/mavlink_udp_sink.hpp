@@ -14,12 +14,16 @@
 //    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the newest one is sent again
 // on the output thread's tick, until it is `stale_after_s` old: then only the
 // heartbeat goes, and the autopilots' own timeouts (0.5 s) say the data is gone.
-// Non-blocking: a send that cannot go is counted.
+// Non-blocking: a send that cannot go is counted. What the autopilot sends back
+// to our port from the configured address (its heartbeats, SYS_STATUS) is read
+// on each tick, at most kMaxDatagramsPerTick, into the AutopilotMonitor's
+// counters; datagrams from any other address are counted and dropped.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
+#include "hal/mavlink/autopilot_monitor.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
 #include "hal/output/obstacle_sink.hpp"
 
@@ -62,6 +66,12 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
                     : "MAVLink/UDP (OBSTACLE_DISTANCE, HEARTBEAT)";
   }
   bool sends_3d() const { return send_3d_; }
+  // One datagram from the autopilot (the socket's, or a test's).
+  void on_datagram(const std::uint8_t* data, std::size_t size, double now_s) {
+    monitor_.on_datagram(data, size, now_s);
+  }
+  const AutopilotMonitor& autopilot() const { return monitor_; }
+  static constexpr int kMaxDatagramsPerTick = 64;
   void publish(const hal::ObstacleUpdate& update, double now_s) override;
   void tick(double now_s) override;
   void report(hal::HealthSnapshot* health) const override;
@@ -75,6 +85,7 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
  private:
   void send_obstacles(double now_s);
   void send_scan_3d(double now_s);
+  void receive(double now_s);
   void schedule_next(double now_s);
   bool can_send() const { return fd_ >= 0 || out_ != nullptr; }
   void send(const std::uint8_t* frame, std::size_t size, double now_s);
@@ -96,6 +107,8 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   std::int64_t heartbeats_ = 0, obstacles_3d_ = 0, updates_ = 0;
   std::int64_t obstacle_distance_ = 0, scans_3d_ = 0, empty_scans_3d_ = 0;
   std::uint32_t last_scan_ms_ = 0;  // a scan's time_boot_ms: each new one greater
+  AutopilotMonitor monitor_;
+  std::int64_t foreign_ = 0;  // datagrams from an address that is not the autopilot's
 };
 
 }  // namespace zonemap::mavlink

@@ -69,7 +69,7 @@ struct HealthSnapshot : FrameCounters {
   std::int64_t static_memory_bytes = 0, rss_bytes = 0;
   std::int32_t zones_allocated = 0, features = 0;
   // Everything else by name (fixed names, set once).
-  static constexpr int kMaxNamed = 64;
+  static constexpr int kMaxNamed = 96;
   const char* names[kMaxNamed] = {};
   std::int64_t values[kMaxNamed] = {};
   int named = 0;

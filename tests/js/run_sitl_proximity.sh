@@ -1,7 +1,8 @@
 #!/bin/sh
 # ArduPilot (software in the loop) reading the daemon's obstacles, checked by
 # sitl_proximity.mjs on the posts-staggered flight (151 frames, 10 Hz, the
-# outdoor config), in a private network namespace: ArduPilot listens on every
+# outdoor config), then a daemon taking its poses from ArduPilot's EKF, in a
+# private network namespace: ArduPilot listens on every
 # interface. Exit 77 (skipped, with the reason) without ArduPilot's SITL build
 # (../shared/sitl beside the clone), Node.js, node-mavlink or a namespace.
 #   run_sitl_proximity.sh SIM DAEMON SOURCE_DIR SITL_DIR WORK_DIR
@@ -18,5 +19,8 @@ fi
 rm -rf "$work"
 mkdir -p "$work"
 "$sim" posts-staggered "$work/seq" --width 640 --rate 10 >/dev/null
+# Frames for the daemon that takes its poses from ArduPilot's EKF (NED).
+"$sim" posts-staggered "$work/seq-ned" --width 320 --rate 10 --frames 60 >/dev/null
+echo "world_z_up: false" >>"$work/seq-ned/camera.yaml"
 exec "$source/tests/netns/in_private_netns.sh" node "$source/tests/js/sitl_proximity.mjs" \
-  "$sitl" "$daemon" "$work/seq" "$source/config/paper-flight2.yaml" "$work/run"
+  "$sitl" "$daemon" "$work/seq" "$source/config/paper-flight2.yaml" "$work/run" "$work/seq-ned"

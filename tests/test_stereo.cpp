@@ -115,3 +115,38 @@ TEST_F(AslStereo, ACalibrationThatDoesNotRectifyIsRefused) {
 
 }  // namespace
 }  // namespace zonemap
+
+namespace zonemap {
+namespace {
+
+// The matcher's range from the rectified camera and the mapping config: KITTI's
+// 0.54 m baseline reaches far past a fixed 20 m, and a 64-disparity search would
+// stop it at 6 m whatever d_min says.
+TEST(StereoRange, DisparitiesFromBaselineFocalAndDMinDepthOutToWhereTheMatcherReaches) {
+  stereo::StereoOptions o;
+  EXPECT_EQ(stereo::range_for(o, 721.5, 0.54).num_disparities, 64);  // off: as given
+  o.range_from_camera = true;
+  o.config_d_min_m = 8.0;
+  o.config_d_max_m = 50.0;
+  const double fb = 721.5 * 0.54;  // KITTI
+  stereo::StereoOptions r = stereo::range_for(o, 721.5, 0.54);
+  EXPECT_EQ(r.num_disparities, 64);  // f b / 8 m = 48.7 px
+  EXPECT_NEAR(r.min_depth_m, fb / 63, 1e-9);
+  EXPECT_NEAR(r.max_depth_m, 0.1 * fb / 0.25, 1e-9);  // 156 m: eq. 1's error 10% there
+  o.config_d_min_m = 2.0;
+  r = stereo::range_for(o, 721.5, 0.54);
+  EXPECT_EQ(r.num_disparities, 208);  // 194.8 px, in steps of 16
+  EXPECT_LT(r.min_depth_m, 2.0);
+  o.config_d_min_m = 0.5;
+  EXPECT_EQ(stereo::range_for(o, 721.5, 0.54).num_disparities, 256);  // at most
+  // EuRoC's 11 cm at d_min 0.8 m: the 64 it always had; d_max is reached even
+  // where the 10% rule would stop short of it.
+  o.config_d_min_m = 0.8;
+  o.config_d_max_m = 30.0;
+  r = stereo::range_for(o, 435.0, 0.11);
+  EXPECT_EQ(r.num_disparities, 64);
+  EXPECT_NEAR(r.max_depth_m, 30.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace zonemap

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "hal/config/yaml_config.hpp"
 #include "hal/os/realtime.hpp"
 #include "tools/replay/replay_run.hpp"
 #ifdef ZONEMAP_HAVE_STEREO
@@ -45,16 +46,28 @@ bool stereo_if_asl(zonemap::tools::ReplayOptions* options, const std::string& ou
   zonemap::stereo::StereoReport report;
   std::string error;
   const std::string converted = out_dir + "/sequence";
-  if (!zonemap::stereo::convert_asl(options->sequence_dir, converted, {}, &report, &error)) {
+  // The matcher's range from the rectified camera and the mapping config's d_min/d_max.
+  zonemap::MapConfig config;
+  if (!zonemap::hal::load_map_config(options->config_path, &config, &error)) {
+    std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
+    return false;
+  }
+  zonemap::stereo::StereoOptions stereo_options;
+  stereo_options.range_from_camera = true;
+  stereo_options.config_d_min_m = config.d_min_m;
+  stereo_options.config_d_max_m = config.d_max_m;
+  if (!zonemap::stereo::convert_asl(options->sequence_dir, converted, stereo_options, &report,
+                                    &error)) {
     std::fprintf(stderr, "zonemap-replay: %s\n", error.c_str());
     return false;
   }
   if (!options->quiet) {
     std::fprintf(stderr,
                  "zonemap-replay: ASL recording: %d pairs matched (SGBM, f %.1f px, b %.4f m, "
-                 "%.1f%% valid, %.1f ms a pair) -> %s\n",
-                 report.written, report.focal_px, report.baseline_m,
-                 100 * report.valid_share_median, report.ms_per_pair_median, converted.c_str());
+                 "%d disparities: %.1f-%.0f m, %.1f%% valid, %.1f ms a pair) -> %s\n",
+                 report.written, report.focal_px, report.baseline_m, report.num_disparities,
+                 report.min_depth_m, report.max_depth_m, 100 * report.valid_share_median,
+                 report.ms_per_pair_median, converted.c_str());
   }
   options->sequence_dir = converted;
   *figures = {{"pairs", report.pairs},

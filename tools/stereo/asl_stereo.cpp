@@ -421,7 +421,10 @@ bool write_stereo_json(const std::string& path, const StereoReport& report, cons
        << ", \"cam1_without_cam0\": " << report.cam1_without_cam0
        << ", \"unreadable\": " << report.unreadable << ", \"poses\": " << report.poses
        << ", \"poses_rejected\": " << report.poses_rejected << ",\n \"focal_px\": " << r.f
-       << ", \"baseline_m\": " << r.baseline_m << ", \"sigma_px_left_right\": " << report.sigma_px
+       << ", \"baseline_m\": " << r.baseline_m
+       << ", \"num_disparities\": " << report.num_disparities
+       << ", \"min_depth_m\": " << report.min_depth_m << ", \"max_depth_m\": " << report.max_depth_m
+       << ", \"sigma_px_left_right\": " << report.sigma_px
        << ", \"sigma_px_from_reference\": " << report.sigma_px_from_reference
        << ", \"match_sigma_px\": " << sigma << ",\n \"valid_share_median\": " << buf
        << ", \"reference_bm_valid_share_median\": " << report.reference_valid_share_median
@@ -432,8 +435,19 @@ bool write_stereo_json(const std::string& path, const StereoReport& report, cons
 
 }  // namespace
 
-bool convert_asl(const std::string& asl_dir, const std::string& out_dir, const StereoOptions& o,
-                 StereoReport* report, std::string* error) {
+StereoOptions range_for(const StereoOptions& o, double f_px, double baseline_m) {
+  if (!o.range_from_camera) return o;
+  StereoOptions out = o;
+  const double fb = f_px * baseline_m;
+  const int needed = static_cast<int>(std::ceil(fb / std::max(o.config_d_min_m, 0.01)));
+  out.num_disparities = std::clamp((needed + 15) / 16 * 16, 16, 256);
+  out.min_depth_m = fb / (out.num_disparities - 1);
+  out.max_depth_m = std::max(o.config_d_max_m, 0.1 * fb / StereoOptions::kNominalSigmaPx);
+  return out;
+}
+
+bool convert_asl(const std::string& asl_dir, const std::string& out_dir,
+                 const StereoOptions& requested, StereoReport* report, std::string* error) {
   *report = StereoReport{};
   AslCamera cam0, cam1;
   if (!load_camera(asl_dir + "/mav0/cam0", &cam0, error) ||
@@ -444,6 +458,10 @@ bool convert_asl(const std::string& asl_dir, const std::string& out_dir, const S
   if (!rectify(cam0, cam1, &r, error)) return false;
   report->focal_px = r.f;
   report->baseline_m = r.baseline_m;
+  const StereoOptions o = range_for(requested, r.f, r.baseline_m);
+  report->num_disparities = o.num_disparities;
+  report->min_depth_m = o.min_depth_m;
+  report->max_depth_m = o.max_depth_m;
   std::error_code ec;
   fs::create_directories(fs::path(out_dir) / "depth", ec);
   fs::create_directories(fs::path(out_dir) / "left", ec);

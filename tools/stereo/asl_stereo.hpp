@@ -17,6 +17,13 @@ struct StereoOptions {
   double depth_scale = 1000.0;  // PNG value per metre
   double min_depth_m = 0.5;
   double max_depth_m = 20.0;
+  // The range from the rectified camera and the mapping config instead of the
+  // fixed one above: disparities down to d_min (f b / d_min, in steps of 16, at
+  // most 256), depth written out to where eq. 1's range error is 10% of the range
+  // at kNominalSigmaPx (z = 0.1 f b / sigma), and at least to d_max.
+  bool range_from_camera = false;
+  double config_d_min_m = 0.5, config_d_max_m = 50.0;
+  static constexpr double kNominalSigmaPx = 0.25;
   int reference_every = 10;  // every n-th pair also through the block matcher and right-to-left
 };
 
@@ -28,6 +35,8 @@ struct StereoReport {
   int unreadable = 0;  // a PNG that could not be read or has the wrong size
   int poses = 0, poses_rejected = 0;
   double focal_px = 0.0, baseline_m = 0.0;        // of the rectified pair (eq. 1's f and b)
+  int num_disparities = 0;                        // the matcher's, as used
+  double min_depth_m = 0.0, max_depth_m = 0.0;    // the depth written, as used
   double valid_share_median = 0.0;                // SGBM pixels with a depth, per frame
   double reference_valid_share_median = 0.0;      // OpenCV's block matcher, same pairs
   double reference_disagreement_px_median = 0.0;  // |SGBM - BM| where both have one
@@ -35,6 +44,9 @@ struct StereoReport {
   double sigma_px_from_reference = 0.0;  // from the disagreement with the block matcher
   double ms_per_pair_median = 0.0;       // rectify + match + depth, one pair
 };
+
+// The options `o` leave for a rectified pair of focal length f (px) and baseline b.
+StereoOptions range_for(const StereoOptions& o, double f_px, double baseline_m);
 
 // DIR holds an ASL recording (DIR/mav0/cam0/data.csv).
 bool is_asl_recording(const std::string& dir);

@@ -65,7 +65,25 @@ TEST(Evaluate, AJoinedBoxReachingIntoTheGapStillJoins) {
                                      obstacle(2, {3.5, 0, 0}, {9.5, 4, 10})};
   const Evaluation e = evaluate(objects, boxes, 0.5);
   EXPECT_DOUBLE_EQ(e.separated, 0.0);
+  EXPECT_DOUBLE_EQ(e.separated_wide, 1.0) << "a 1.3 m gap may join";
   EXPECT_NEAR(e.excess_max_m, 5.5, 1e-9);
+}
+
+// Separated over gaps a helicopter fits through (>= 2.5 m): three posts, 1.5 m and
+// 3 m apart, all in one box: none separated; over wide gaps only the close pair's
+// joining is forgiven, the box still swallows the far post.
+TEST(Evaluate, SeparatedOverWideGapsForgivesOnlyTheNarrowOnes) {
+  const std::vector<TruthObject> objects = {box_object("a", {0, 0, 0}, {1, 1, 5}),
+                                            box_object("b", {2.5, 0, 0}, {3.5, 1, 5}),
+                                            box_object("c", {6.5, 0, 0}, {7.5, 1, 5})};
+  Evaluation e = evaluate(objects, {obstacle(1, {0, 0, 0}, {7.5, 1, 5})}, 0.5);
+  EXPECT_DOUBLE_EQ(e.separated, 0.0);
+  EXPECT_DOUBLE_EQ(e.separated_wide, 0.0);
+  // a and b share a box, c has its own: only the 1.5 m gap is joined.
+  e = evaluate(objects,
+               {obstacle(1, {0, 0, 0}, {3.5, 1, 5}), obstacle(2, {6.5, 0, 0}, {7.5, 1, 5})}, 0.5);
+  EXPECT_NEAR(e.separated, 1.0 / 3.0, 1e-12);
+  EXPECT_DOUBLE_EQ(e.separated_wide, 1.0);
 }
 
 TEST(Evaluate, AMovingObjectCountsWhereItEndsAndItsOldPlaceIsAFalseBox) {

@@ -168,7 +168,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
                     double tolerance_m) {
   Evaluation e;
   std::vector<double> excess, coverage, coverage_seen;
-  int separated = 0;
+  int separated = 0, separated_wide = 0;
   for (const TruthObject& o : objects) {
     ObjectResult r;
     r.name = o.name;
@@ -177,17 +177,17 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
     double best = INFINITY;
     Eigen::Vector3d union_min = Eigen::Vector3d::Constant(INFINITY);
     Eigen::Vector3d union_max = Eigen::Vector3d::Constant(-INFINITY);
-    bool swallows_another = false;
+    bool swallows_another = false, swallows_one_wide_apart = false;
     for (const RunBox* box : boxes_of(o, boxes, tolerance_m)) {
       const RunBox& b = *box;
       ++r.boxes;
       union_min = union_min.cwiseMin(b.min);
       union_max = union_max.cwiseMax(b.max);
       for (const TruthObject& other : objects) {
-        if (&other != &o && gap_xy(o, other) >= kSeparationM &&
-            overlaps(other.min, other.max, b.min, b.max, 0.0)) {
-          swallows_another = true;
-        }
+        if (&other == &o || !overlaps(other.min, other.max, b.min, b.max, 0.0)) continue;
+        const double gap = gap_xy(o, other);
+        swallows_another |= gap >= kSeparationM;
+        swallows_one_wide_apart |= gap >= kWideGapM;
       }
       const Eigen::Vector2d c((b.min.x() + b.max.x()) / 2, (b.min.y() + b.max.y()) / 2);
       const double d = (c - o.centre).norm();
@@ -201,6 +201,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
     }
     if (r.detected) {
       r.separated = !swallows_another;
+      r.separated_wide = !swallows_one_wide_apart;
       r.excess_m = std::max({o.min.x() - union_min.x(), union_max.x() - o.max.x(),
                              o.min.y() - union_min.y(), union_max.y() - o.max.y(), 0.0});
       r.z_coverage = height_share(o.min.z(), o.max.z(), union_min.z(), union_max.z());
@@ -215,6 +216,7 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
       if (r.detected) {
         ++e.objects_found;
         separated += r.separated ? 1 : 0;
+        separated_wide += r.separated_wide ? 1 : 0;
         excess.push_back(r.excess_m);
         coverage.push_back(r.z_coverage);
         coverage_seen.push_back(r.z_coverage_seen);
@@ -239,6 +241,8 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
                                                : static_cast<double>(e.boxes_touching_no_object) /
                                                      static_cast<double>(e.obstacle_boxes);
   e.separated = e.objects_found == 0 ? 0.0 : static_cast<double>(separated) / e.objects_found;
+  e.separated_wide =
+      e.objects_found == 0 ? 0.0 : static_cast<double>(separated_wide) / e.objects_found;
   e.excess_median_m = median(excess);
   e.excess_max_m = excess.empty() ? 0.0 : *std::max_element(excess.begin(), excess.end());
   e.purity = area > 0.0 ? pure / area : 1.0;
@@ -259,6 +263,7 @@ std::string to_json(const Evaluation& e) {
       << ",\n  \"objects_seen\": " << e.objects_seen
       << ",\n  \"objects_found\": " << e.objects_found
       << ",\n  \"moving_objects\": " << e.moving_objects << ",\n  \"separated\": " << e.separated
+      << ",\n  \"separated_wide_gaps\": " << e.separated_wide
       << ",\n  \"excess_m\": {\"median\": " << e.excess_median_m << ", \"max\": " << e.excess_max_m
       << "}"
       << ",\n  \"purity\": " << e.purity
@@ -302,13 +307,15 @@ std::string to_table(const Evaluation& e) {
     out << buf;
   }
   std::snprintf(buf, sizeof(buf),
-                "recall %.1f%% (%d of %d seen); separated %.0f%%; excess median %.2f m, max "
+                "recall %.1f%% (%d of %d seen); separated %.0f%% (over gaps >= %.1f m: %.0f%%); "
+                "excess median %.2f m, max "
                 "%.2f m; purity %.0f%%; z coverage median %.0f%%, min %.0f%% (of the height seen "
                 "%.0f%%, %.0f%%); %d obstacle boxes, %d false (touching no object)\n",
-                100.0 * e.recall, e.objects_found, e.objects_seen, 100.0 * e.separated,
-                e.excess_median_m, e.excess_max_m, 100.0 * e.purity, 100.0 * e.z_coverage_median,
-                100.0 * e.z_coverage_min, 100.0 * e.z_coverage_seen_median,
-                100.0 * e.z_coverage_seen_min, e.obstacle_boxes, e.boxes_touching_no_object);
+                100.0 * e.recall, e.objects_found, e.objects_seen, 100.0 * e.separated, kWideGapM,
+                100.0 * e.separated_wide, e.excess_median_m, e.excess_max_m, 100.0 * e.purity,
+                100.0 * e.z_coverage_median, 100.0 * e.z_coverage_min,
+                100.0 * e.z_coverage_seen_median, 100.0 * e.z_coverage_seen_min, e.obstacle_boxes,
+                e.boxes_touching_no_object);
   out << buf;
   if (e.moving_objects > 0) {
     std::snprintf(buf, sizeof(buf),

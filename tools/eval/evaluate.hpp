@@ -33,6 +33,7 @@ struct TruthObject {
 inline constexpr std::int64_t kSeenPixelHits = 1000;  // the camera saw it well enough to map
 inline constexpr double kPurityMarginM = 0.5;         // box area this near an object is object
 inline constexpr double kSeparationM = 1.0;           // objects this far apart need two boxes
+inline constexpr double kWideGapM = 2.5;              // a gap a helicopter fits through
 
 struct RunBox {
   unsigned id = 0;
@@ -50,8 +51,9 @@ struct ObjectResult {
   unsigned box_id = 0;
   double centre_error_xy_m = 0.0;
   Eigen::Vector2d box_centre = Eigen::Vector2d::Zero();
-  int boxes = 0;            // its obstacle boxes: overlapping it, else within the tolerance
-  bool separated = false;   // none of them overlaps another object >= kSeparationM away
+  int boxes = 0;                // its obstacle boxes: overlapping it, else within the tolerance
+  bool separated = false;       // none of them overlaps another object >= kSeparationM away
+  bool separated_wide = false;  // none overlaps another object >= kWideGapM away
   double excess_m = 0.0;    // how far its boxes' union reaches past its x-y extent (largest side)
   double z_coverage = 0.0;  // share of its height its boxes cover
   // The same share of the height the camera saw (up to seen_top_z): what a map of
@@ -67,7 +69,8 @@ struct Evaluation {
   int moving_objects = 0;
   double recall = 0.0;  // found / seen
   double false_box_fraction = 0.0;
-  double separated = 0.0;  // of the objects found
+  double separated = 0.0;       // of the objects found
+  double separated_wide = 0.0;  // the same over gaps >= kWideGapM (narrower ones may join)
   double excess_median_m = 0.0, excess_max_m = 0.0;
   double purity = 0.0;  // obstacle-box x-y area within kPurityMarginM of an object / all of it
   double z_coverage_median = 0.0, z_coverage_min = 0.0;

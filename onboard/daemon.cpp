@@ -8,6 +8,7 @@
 
 #include "hal/can/can_pose_source.hpp"
 #include "hal/can/obstacle_can_sink.hpp"
+#include "hal/config/prior_map.hpp"
 #include "hal/config/yaml_config.hpp"
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/lcm/lcm_link.hpp"
@@ -31,9 +32,22 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   features_ = std::make_unique<FeatureMap>(map_config_, camera_.world_z_up);
   features_->set_camera(camera_);
   mapper_->zones().add_observer(features_.get());
-  if (!open_sinks(error)) return false;
+  if (!add_prior_map(error) || !open_sinks(error)) return false;
   frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
   return make_pipeline(error);
+}
+
+// The prior map (vehicle.yaml `prior:`): every box in the feature map before the
+// first frame; a file with one bad row stops the start with its file and line.
+bool VehicleDaemon::add_prior_map(std::string* error) {
+  if (config_.prior_path.empty()) return true;
+  hal::PriorMap prior;
+  if (!hal::load_prior_map(config_.prior_path, &prior, error)) return false;
+  int stored = 0;
+  for (const hal::PriorBox& b : prior.boxes) stored += features_->add_prior(b.min, b.max) ? 1 : 0;
+  std::fprintf(stderr, "zonemap: prior map %s: %zu obstacles (%d stored whole)\n",
+               config_.prior_path.c_str(), prior.boxes.size(), stored);
+  return true;
 }
 
 // Frames from a replay sequence (host, desk) or the V4L2 camera (FPGA depth).

@@ -45,6 +45,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   bool open_poses(std::string* error);
   bool open_pose_log(std::string* error);
   bool open_mavlink_poses(std::string* error);
+  bool add_prior_map(std::string* error);
   bool open_sinks(std::string* error);
   bool make_pipeline(std::string* error);
   bool open_recorder(std::size_t footprint_rects, std::string* error);

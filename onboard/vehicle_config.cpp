@@ -213,8 +213,8 @@ std::string missing_for_sources(const VehicleConfig& c) {
 
 // Paths in the file are relative to it.
 void resolve_paths(const std::string& path, VehicleConfig* c) {
-  for (std::string* p : {&c->mapping_path, &c->camera_path, &c->sequence_dir, &c->pose_log_path,
-                         &c->output_dir, &c->record_path}) {
+  for (std::string* p : {&c->mapping_path, &c->prior_path, &c->camera_path, &c->sequence_dir,
+                         &c->pose_log_path, &c->output_dir, &c->record_path}) {
     *p = relative_to(path, *p);
   }
 }
@@ -226,6 +226,7 @@ bool parse_vehicle_config(const YAML::Node& root, const std::string& path, Vehic
   const bool read = hal::read_explained(path, error, [&] {
     hal::read_section(path, root, "",
                       {{"mapping", into(&c.mapping_path)},
+                       {"prior", into(&c.prior_path)},
                        {"camera", into(&c.camera_path)},
                        {"live", into(&c.live)},
                        {"frames", frames_section(path, &c)},

@@ -17,6 +17,7 @@ namespace zonemap::onboard {
 struct VehicleConfig {
   std::string path;          // this file
   std::string mapping_path;  // the mapping configuration (config/*.yaml)
+  std::string prior_path;    // a prior map (boxes.csv) in the feature map from the start
   std::string camera_path;   // camera.yaml (v4l2; replay: empty = the sequence's)
 
   enum class FrameSourceKind { kReplay, kV4l2 };

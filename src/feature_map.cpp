@@ -61,6 +61,7 @@ FeatureMap::FeatureMap(const MapConfig& config, bool world_z_up)
       cell_size_m_(config.cell_size_m),
       z_up_(world_z_up),
       dims_(config.zone_cells),
+      map_config_(config),
       threshold_(static_cast<FusedCell>(
           to_fixed(static_cast<float>(config.features.occupied_threshold_units)))),
       reintegration_value_(static_cast<FusedCell>(
@@ -368,10 +369,61 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   // Objects of this zone that the grid no longer holds.
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
     if (f->in_use && f->stale) {
+      if (f->prior) ++counters_.priors_removed;
       remove(f);
       ++counters_.features_removed;
     }
   }
+}
+
+bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m) {
+  const auto cell = [this](double m, bool upper) {
+    const double c = m / cell_size_m_;
+    // [min, max) in metres: the cells it covers, at least one.
+    return static_cast<std::int32_t>(upper ? std::ceil(c) - 1.0 : std::floor(c));
+  };
+  const CellIndex lo{cell(min_m.x(), false), cell(min_m.y(), false), cell(min_m.z(), false)};
+  CellIndex hi{cell(max_m.x(), true), cell(max_m.y(), true), cell(max_m.z(), true)};
+  hi = {std::max(hi.x, lo.x), std::max(hi.y, lo.y), std::max(hi.z, lo.z)};
+  const ZoneKey first = ZoneMap::key_of(map_config_, lo);
+  const ZoneKey last = ZoneMap::key_of(map_config_, hi);
+  bool all_stored = true;
+  // Bounded by the box's extent in zones (the loader refuses boxes over 1 km).
+  for (std::int32_t k = first.k; k <= last.k; ++k)
+    for (std::int32_t j = first.j; j <= last.j; ++j)
+      for (std::int32_t i = first.i; i <= last.i; ++i) {
+        const ZoneKey key{i, j, k};
+        const CellIndex o = ZoneMap::origin_of(map_config_, key);
+        const CellIndex a{std::max(lo.x, o.x), std::max(lo.y, o.y), std::max(lo.z, o.z)};
+        const CellIndex b{std::min(hi.x, o.x + dims_[0] - 1), std::min(hi.y, o.y + dims_[1] - 1),
+                          std::min(hi.z, o.z + dims_[2] - 1)};
+        all_stored &= add_prior_piece(key, a, b);
+      }
+  return all_stored;
+}
+
+bool FeatureMap::add_prior_piece(const ZoneKey& zone, const CellIndex& min, const CellIndex& max) {
+  Feature piece;
+  piece.kind = FeatureKind::kObstacle;
+  piece.min = min;
+  piece.max = max;
+  piece.cells = (max.x - min.x + 1) * (max.y - min.y + 1) * (max.z - min.z + 1);
+  Feature* slot = free_slot(relevance(piece));
+  if (slot == nullptr) {
+    ++counters_.priors_dropped;
+    return false;
+  }
+  piece.id = next_id_++;
+  piece.zone = zone;
+  piece.first_seen_s = time_s_;
+  piece.last_seen_s = time_s_;
+  piece.in_use = true;
+  piece.prior = true;  // has_shape false: the whole box is the object until a view says more
+  *slot = piece;
+  ++in_use_;
+  ++priors_live_;
+  ++counters_.priors_added;
+  return true;
 }
 
 std::size_t FeatureMap::fill_component(const ZoneSnapshot& zone, std::size_t start, bool ground) {
@@ -669,7 +721,26 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
   upsert(zone.key(), ground ? FeatureKind::kGround : FeatureKind::kObstacle,
          CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
          CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z},
-         static_cast<std::int32_t>(count));
+         static_cast<std::int32_t>(count), priors_live_ > 0 && measured(zone, cells, count));
+}
+
+// Whether views found the object occupied: a tenth of its cells above the value
+// re-integration writes (a re-inserted object no view has looked at holds
+// exactly that; one seen free falls below it). Its lowest cells are left out: the
+// measured ground's band reaches into them whether the object stands or not.
+bool FeatureMap::measured(const ZoneSnapshot& zone, const std::uint32_t* cells,
+                          std::size_t count) const {
+  int lowest = INT32_MAX;
+  for (std::size_t k = 0; k < count; ++k) lowest = std::min(lowest, height_of(cell_z(cells[k])));
+  const int above_ground_band = lowest + 2 * std::max(ground_thickness_cells_, 1);
+  const int written = reintegration_value_ / zone.level_step();
+  std::size_t upper = 0, above = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (height_of(cell_z(cells[k])) < above_ground_band) continue;
+    ++upper;
+    above += zone.level(cells[k]) > written ? 1 : 0;
+  }
+  return above > 0 && 10 * above >= upper;
 }
 
 double FeatureMap::relevance(const Feature& f) const {
@@ -683,6 +754,7 @@ double FeatureMap::relevance(const Feature& f) const {
 }
 
 void FeatureMap::remove(Feature* f) {
+  if (f->prior) --priors_live_;
   if (f->has_shape) shapes_.release(&f->shape);
   *f = Feature{};
   --in_use_;
@@ -705,7 +777,7 @@ Feature* FeatureMap::free_slot(double new_relevance) {
 }
 
 void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min,
-                        const CellIndex& max, std::int32_t cells) {
+                        const CellIndex& max, std::int32_t cells, bool measured) {
   // The same object as before: the stale feature of this zone and kind that
   // overlaps the new box most.
   Feature* match = nullptr;
@@ -741,7 +813,14 @@ void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& 
   match->min = min;
   match->max = max;
   match->cells = cells;
-  if (in_view(min, max)) match->last_seen_s = time_s_;
+  if (in_view(min, max)) {
+    match->last_seen_s = time_s_;
+    if (match->prior && measured) {  // seen occupied where it was said to stand
+      match->prior = false;
+      --priors_live_;
+      ++counters_.priors_confirmed;
+    }
+  }
   match->stale = false;
   match->has_shape = shapes_.build(footprint_.get(), max.x - min.x + 1, max.y - min.y + 1,
                                    &match->shape, &match->shape_side);
@@ -828,6 +907,7 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
       box.id = root.id;
       box.first_seen_s = root.first_seen_s;
       box.last_seen_s = root.last_seen_s;
+      box.prior = true;
       CellIndex lo = root.min;
       CellIndex hi = root.max;
       const std::size_t first_rect = footprints != nullptr ? footprints->used : 0;
@@ -844,6 +924,7 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
         box.first_seen_s = std::min(box.first_seen_s, f.first_seen_s);
         box.last_seen_s = std::max(box.last_seen_s, f.last_seen_s);
         box.cells += f.cells;
+        box.prior &= f.prior;
         ++box.parts;
       }
       box.min = Eigen::Vector3d(lo.x, lo.y, lo.z) * cell_size_m_;

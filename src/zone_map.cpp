@@ -6,6 +6,13 @@
 #include "zonemap/local_grid.hpp"
 
 namespace zonemap {
+namespace {
+
+int z_phase_of(const MapConfig& config) {
+  return config.placement == MapConfig::Placement::kBelow ? -(config.zone_cells[2] / 2) : 0;
+}
+
+}  // namespace
 
 ZoneMap::ZoneMap(const MapConfig& config)
     : dims_(config.zone_cells),
@@ -13,7 +20,7 @@ ZoneMap::ZoneMap(const MapConfig& config)
       above_cells_(
           std::clamp(static_cast<int>(std::ceil(config.above_camera_m / config.cell_size_m)), 0,
                      config.zone_cells[2] - 1)),
-      z_phase_(config.placement == MapConfig::Placement::kBelow ? -(config.zone_cells[2] / 2) : 0),
+      z_phase_(z_phase_of(config)),
       cells_per_zone_(zone_cell_count(config)),
       limit_(static_cast<FusedCell>(std::min(to_fixed(static_cast<float>(config.saturation_units)),
                                              kMaxFusedUnits * kCellScale))),
@@ -69,6 +76,17 @@ CellIndex ZoneMap::environment_origin(const CellIndex& camera_cell, bool world_z
 ZoneKey ZoneMap::key_of(const CellIndex& cell) const {
   return ZoneKey{floor_div(cell.x, dims_[0]), floor_div(cell.y, dims_[1]),
                  floor_div(cell.z - z_phase_, dims_[2])};
+}
+
+ZoneKey ZoneMap::key_of(const MapConfig& config, const CellIndex& cell) {
+  const std::array<int, 3>& d = config.zone_cells;
+  return ZoneKey{floor_div(cell.x, d[0]), floor_div(cell.y, d[1]),
+                 floor_div(cell.z - z_phase_of(config), d[2])};
+}
+
+CellIndex ZoneMap::origin_of(const MapConfig& config, const ZoneKey& key) {
+  const std::array<int, 3>& d = config.zone_cells;
+  return CellIndex{key.i * d[0], key.j * d[1], key.k * d[2] + z_phase_of(config)};
 }
 
 ZoneView ZoneMap::view_of(const Slot& slot) const {

@@ -164,13 +164,15 @@ TEST(Daemon, CpuRunsWhatTheBuildWasCompiledFor) {
 TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
   zonemap::testing::TempDir dir;
   const std::string path = dir / "vehicle.yaml";
-  std::ofstream(path) << "mapping: flight.yaml\nframes: {source: replay, sequence: seq}\n"
+  std::ofstream(path) << "mapping: flight.yaml\nprior: maps/prior.csv\n"
+                         "frames: {source: replay, sequence: seq}\n"
                          "poses: {source: can, can_profile: sbg-ecan, byte_order: big,\n"
                          "        ids: {info: 0x230}, origin: [48.1, 11.5, 520.0]}\n";
   onboard::VehicleConfig c;
   std::string error;
   ASSERT_TRUE(onboard::load_vehicle_config(path, &c, &error)) << error;
   EXPECT_EQ(c.mapping_path, dir / "flight.yaml");
+  EXPECT_EQ(c.prior_path, dir / "maps/prior.csv");
   EXPECT_EQ(c.sequence_dir, dir / "seq");
   EXPECT_FALSE(c.can_profile.little_endian);
   EXPECT_EQ(c.can_profile.id_info, 0x230u);

@@ -68,7 +68,11 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"objects_too_small\": " << s.feature_counters.objects_too_small
       << ", \"objects_split\": " << s.feature_counters.objects_split
       << ", \"shapes_truncated\": " << s.feature_counters.shapes_truncated
-      << ", \"cells_reintegrated\": " << s.feature_counters.cells_reintegrated << "},\n"
+      << ", \"cells_reintegrated\": " << s.feature_counters.cells_reintegrated
+      << ", \"priors_added\": " << s.feature_counters.priors_added
+      << ", \"priors_confirmed\": " << s.feature_counters.priors_confirmed
+      << ", \"priors_removed\": " << s.feature_counters.priors_removed
+      << ", \"priors_dropped\": " << s.feature_counters.priors_dropped << "},\n"
       << "  \"extract_ms\": {\"p50\": " << s.extract_ms_p50 << ", \"max\": " << s.extract_ms_max
       << "},\n"
       << "  \"pipeline\": " << (s.pipeline ? "true" : "false") << ",\n"
@@ -117,12 +121,13 @@ bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::siz
     *error = path + ": cannot create";
     return false;
   }
-  std::fprintf(f, "id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells,last_seen_s\n");
+  std::fprintf(f, "id,kind,xmin,ymin,zmin,xmax,ymax,zmax,cells,last_seen_s,prior\n");
   for (std::size_t i = 0; i < count; ++i) {
     const ObstacleBox& b = boxes[i];
-    std::fprintf(f, "%u,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%.3f\n", b.id,
+    std::fprintf(f, "%u,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%.3f,%d\n", b.id,
                  b.kind == FeatureKind::kObstacle ? "obstacle" : "ground", b.min.x(), b.min.y(),
-                 b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells, b.last_seen_s);
+                 b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells, b.last_seen_s,
+                 b.prior ? 1 : 0);
   }
   if (std::fclose(f) != 0) {
     *error = path + ": write failed";

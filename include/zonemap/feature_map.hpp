@@ -41,12 +41,15 @@ struct Feature {
   bool has_shape = false;  // false: the pool was full, the whole box counts as occupied
   bool in_use = false;
   bool stale = false;  // during an update of its zone: not matched yet
+  // Known before the flight (add_prior) and not yet confirmed by a view.
+  bool prior = false;
 };
 
 // One object of the output: per-zone features of the same object merged.
 struct ObstacleBox {
   std::uint32_t id = 0;  // the smallest id of its features
   FeatureKind kind = FeatureKind::kObstacle;
+  bool prior = false;  // every feature of it is prior, none confirmed by a view (in padding)
   Eigen::Vector3d min = Eigen::Vector3d::Zero();  // world metres
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
   std::int32_t cells = 0;
@@ -80,6 +83,9 @@ struct FeatureCounters {
   std::int64_t objects_split = 0;      // components split at value dips into several objects
   std::int64_t shapes_truncated = 0;   // quadtree pool full: box kept without its shape
   std::int64_t cells_reintegrated = 0;
+  // A-priori features (add_prior): pieces stored, confirmed occupied by a view,
+  // removed when views saw their cells free, not stored (the store was full).
+  std::int64_t priors_added = 0, priors_confirmed = 0, priors_removed = 0, priors_dropped = 0;
 };
 
 class FeatureMap : public ZoneObserver {
@@ -110,6 +116,16 @@ class FeatureMap : public ZoneObserver {
   // The same from a snapshot (taken with occupied_threshold(), maybe on another thread).
   void extract(const ZoneSnapshot& zone);
   FusedCell occupied_threshold() const { return threshold_; }
+
+  // A-priori knowledge (the paper's abstract, §IV): an obstacle known before the
+  // flight, world metres. Cut into the zones it spans, each piece a feature
+  // marked prior (a full box: no footprint) that is written into its zone's grid
+  // when the zone is allocated, like any stored feature. An extraction that finds
+  // it occupied while it stands in view makes it an ordinary feature; one that
+  // finds its cells seen free removes it (both counted). When the store is full
+  // the usual relevance rule decides (obstacles by size and nearness to the
+  // vehicle); a piece left out is counted and the call returns false.
+  bool add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m);
 
   // ZoneObserver: re-integration on allocation, extraction before discard.
   void on_zone_allocated(ZoneView& zone) override;
@@ -173,8 +189,10 @@ class FeatureMap : public ZoneObserver {
   int band_quantile(int x, int y, double fraction) const;
   // out = minimum of the values within radius r (kNoHeight entries left out).
   void window_min(const std::int16_t* values, std::int16_t* out, std::int16_t* tmp, int r) const;
+  // measured: views added to its cells (a prior one it matches is then confirmed).
   void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
-              std::int32_t cells);
+              std::int32_t cells, bool measured);
+  bool measured(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count) const;
   double relevance(const Feature& f) const;
   // Whether part of the box of world cells [min, max] is in the camera's view:
   // one of its corners, edge middles, face centres or centre projects into the
@@ -182,6 +200,7 @@ class FeatureMap : public ZoneObserver {
   bool in_view(const CellIndex& min, const CellIndex& max) const;
   bool append_footprint(const Feature& f, FootprintOutput* out) const;
   Feature* free_slot(double new_relevance);
+  bool add_prior_piece(const ZoneKey& zone, const CellIndex& min, const CellIndex& max);
   void remove(Feature* f);
   int height_of(int z) const { return z_up_ ? z : dims_[2] - 1 - z; }
   // Extraction steps: the 6-connected component of one class from `start` into
@@ -249,6 +268,8 @@ class FeatureMap : public ZoneObserver {
   double cell_size_m_;
   bool z_up_;
   std::array<int, 3> dims_;
+  MapConfig map_config_;          // the zones' layout, for cutting priors at zone faces
+  std::int64_t priors_live_ = 0;  // prior features in the store, not confirmed yet
   FusedCell threshold_;
   FusedCell reintegration_value_;
   int ground_thickness_cells_;

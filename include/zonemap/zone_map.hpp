@@ -82,6 +82,9 @@ class ZoneMap {
   bool value_at(const CellIndex& cell, FusedCell* value) const;
 
   ZoneKey key_of(const CellIndex& cell) const;
+  // The same for any map of this configuration (zone faces in z at k * dims_z + phase).
+  static ZoneKey key_of(const MapConfig& config, const CellIndex& cell);
+  static CellIndex origin_of(const MapConfig& config, const ZoneKey& key);
 
   int live_zone_count() const;
   // The zone `key` when it holds a grid.

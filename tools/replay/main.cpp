@@ -34,6 +34,8 @@ constexpr const char* kUsage =
     "  --mlock         lock the process's memory (needs CAP_IPC_LOCK)\n"
     "  --links DIR     what the vehicle links would carry, stamped with frame times:\n"
     "                  DIR/obstacles.candump (CAN), .lcmlog (LCM), .tlog (MAVLink)\n"
+    "  --prior FILE    a prior map (boxes.csv: a saved map, a survey) in the map from the\n"
+    "                  first frame, marked prior until a view confirms it\n"
     "  --help          this text\n";
 
 // An ASL stereo recording becomes a section-1 sequence in OUT/sequence first (the
@@ -147,6 +149,8 @@ bool parse_arguments(int argc, char** argv, Arguments* a) {
       }
     } else if (arg == "--links") {
       ok = value(&a->options.links_dir);
+    } else if (arg == "--prior") {
+      ok = value(&a->options.prior_path);
     } else if (arg == "--mlock") {
       a->pipeline.lock_memory = true;
     } else if (!arg.empty() && arg[0] != '-' && a->options.sequence_dir.empty()) {

@@ -11,6 +11,7 @@
 #include <iterator>
 #include <span>
 
+#include "hal/config/prior_map.hpp"
 #include "hal/config/yaml_config.hpp"
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/os/allocation_counter.hpp"
@@ -107,6 +108,9 @@ bool ReplayRun::open(const ReplayOptions& options, std::string* error) {
   features_ = std::make_unique<FeatureMap>(config_, sequence_.camera().world_z_up);
   features_->set_camera(sequence_.camera());
   mapper_->zones().add_observer(features_.get());
+  if (!options.prior_path.empty() && !add_prior_map(options.prior_path, options.quiet, error)) {
+    return false;
+  }
 
   // The height profile covers every zone the flight can touch: the trajectory's
   // extent plus one and a half zones on each side.
@@ -601,6 +605,22 @@ std::vector<float> ReplayRun::occupied_sample(std::size_t most) {
     sample.insert(sample.end(), all.begin() + 3 * pick, all.begin() + 3 * pick + 3);
   }
   return sample;
+}
+
+// A prior map: every box in the feature map before the first frame (the
+// paper's a-priori knowledge); a file with one bad row is not used at all.
+bool ReplayRun::add_prior_map(const std::string& path, bool quiet, std::string* error) {
+  hal::PriorMap prior;
+  if (!hal::load_prior_map(path, &prior, error)) return false;
+  int stored = 0;
+  for (const hal::PriorBox& b : prior.boxes) stored += features_->add_prior(b.min, b.max) ? 1 : 0;
+  if (!quiet) {
+    std::fprintf(stderr,
+                 "zonemap-replay: prior map %s: %zu obstacles (%d stored whole, %d ground rows "
+                 "skipped)\n",
+                 path.c_str(), prior.boxes.size(), stored, prior.ground_rows_skipped);
+  }
+  return true;
 }
 
 }  // namespace zonemap::tools

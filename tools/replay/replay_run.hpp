@@ -28,6 +28,7 @@ struct ReplayOptions {
   std::string record_path;     // an MCAP recording of the run (empty: none)
   int record_depth_every = 5;  // every n-th mapped frame's depth into the recording
   std::string links_dir;       // what the vehicle links would carry, as files (empty: none)
+  std::string prior_path;      // a prior map (boxes.csv) in the feature map from the start
 };
 
 class ReplayRun : private runtime::MappingHooks {
@@ -52,6 +53,9 @@ class ReplayRun : private runtime::MappingHooks {
   // Extracts the features of every zone holding a grid now (also done every
   // features.extract_every_frames frames and at finish()).
   void extract_live_zones();
+  // The boxes of a prior map (boxes.csv) into the feature map; false with a
+  // message naming the file and line when the file is unusable.
+  bool add_prior_map(const std::string& path, bool quiet, std::string* error);
   // Writes OUT/stats.json, OUT/boxes.csv, OUT/height.png, OUT/occupied.ply and
   // OUT/report.html.
   bool write_outputs(const std::string& out_dir, std::string* error);

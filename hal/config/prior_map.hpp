@@ -1,0 +1,35 @@
+// A prior map: obstacles known before the flight (a saved map, a survey), read at
+// start-up into a fixed list that FeatureMap::add_prior takes. Formats
+// (docs/FORMATS.md §2, §2b): the project's own boxes.csv (obstacle rows; ground
+// rows are skipped and counted), world frame, metres. Every row is checked: a
+// number that does not parse, NaN, a box inside out, wider than 1 km or reaching
+// below -1 km or past 1,000 km is an error naming the file and line; the map is
+// then not used at all (never a partial prior).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace zonemap::hal {
+
+struct PriorBox {
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+  int line = 0;  // in its file, for messages
+};
+
+struct PriorMap {
+  std::vector<PriorBox> boxes;
+  int ground_rows_skipped = 0;
+};
+
+inline constexpr double kPriorMaxExtentM = 1000.0;  // wider: not an obstacle, a mistake
+inline constexpr double kPriorLowestM = -1000.0;
+inline constexpr double kPriorFarthestM = 1.0e6;
+
+bool load_prior_map(const std::string& path, PriorMap* map, std::string* error);
+
+}  // namespace zonemap::hal

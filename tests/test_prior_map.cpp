@@ -3,6 +3,7 @@
 // prior until a view finds it occupied, removed when views see its cells free.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -137,6 +138,51 @@ TEST(PriorMap, AnUnseenPostStaysPriorOneSeenFreeGoesOneOnAPostIsConfirmed) {
   EXPECT_EQ(in_the_open, 0) << "the box the views saw free is gone";
   EXPECT_EQ(on_post, 1) << "post_a: one box, confirmed";
   EXPECT_EQ(obstacles, 3) << "the unseen post and the two real posts";
+}
+
+// The map outlives the flight: a second replay of the same flight with the first
+// one's boxes.csv as its prior holds the same obstacle boxes (within a cell) from
+// its first frame, and ends with them too, none still marked prior.
+TEST(PriorMap, ASecondFlightWithTheFirstsMapHasItsBoxesFromTheFirstFrame) {
+  TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string config = testing::write_test_scenario("posts-through", sequence, 10.0, 2);
+  ASSERT_FALSE(config.empty());
+  std::string error;
+  tools::ReplayRun first;
+  ASSERT_TRUE(first.open(testing::quiet_replay(sequence, config), &error)) << error;
+  first.run();
+  ASSERT_TRUE(first.write_outputs(dir / "first", &error)) << error;
+  EXPECT_FALSE(std::filesystem::exists(dir / "first/boxes.csv.tmp"));
+  const std::vector<ObstacleBox> saved = first.boxes(false);
+  ASSERT_EQ(saved.size(), 2u);
+
+  tools::ReplayOptions options = testing::quiet_replay(sequence, config);
+  options.prior_path = dir / "first/boxes.csv";
+  tools::ReplayRun second;
+  ASSERT_TRUE(second.open(options, &error)) << error;
+  const double cell = second.config().cell_size_m;
+  const auto same_boxes = [&](const std::vector<ObstacleBox>& boxes, const char* when) {
+    ASSERT_EQ(boxes.size(), saved.size()) << when;
+    for (const ObstacleBox& want : saved) {
+      bool found = false;
+      for (const ObstacleBox& got : boxes) {
+        found |= (got.min - want.min).cwiseAbs().maxCoeff() <= cell + 1e-9 &&
+                 (got.max - want.max).cwiseAbs().maxCoeff() <= cell + 1e-9;
+      }
+      EXPECT_TRUE(found) << when << ": no box within a cell of " << want.min.transpose() << " - "
+                         << want.max.transpose();
+    }
+  };
+  same_boxes(second.boxes(false), "before the first frame");
+  second.run_frames(0, 1);
+  second.extract_live_zones();
+  same_boxes(second.boxes(false), "after the first frame");
+  second.run_frames(1, second.sequence().frame_count());
+  second.finish();
+  const std::vector<ObstacleBox> last = second.boxes(false);
+  same_boxes(last, "at the end");
+  for (const ObstacleBox& b : last) EXPECT_FALSE(b.prior) << "both posts were seen";
 }
 
 }  // namespace

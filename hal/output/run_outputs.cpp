@@ -1,5 +1,7 @@
 #include "hal/output/run_outputs.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -114,9 +116,13 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
   return true;
 }
 
+// Written whole or not at all: into PATH.tmp, flushed to the disk (fsync), then
+// renamed over PATH, so a power cut mid-write leaves the last good map (a saved
+// map is the next flight's prior).
 bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::size_t count,
                      std::string* error) {
-  std::FILE* f = std::fopen(path.c_str(), "w");
+  const std::string temporary = path + ".tmp";
+  std::FILE* f = std::fopen(temporary.c_str(), "w");
   if (f == nullptr) {
     *error = path + ": cannot create";
     return false;
@@ -129,7 +135,9 @@ bool write_boxes_csv(const std::string& path, const ObstacleBox* boxes, std::siz
                  b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.cells, b.last_seen_s,
                  b.prior ? 1 : 0);
   }
-  if (std::fclose(f) != 0) {
+  const bool written = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
+  if (std::fclose(f) != 0 || !written || std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
     *error = path + ": write failed";
     return false;
   }

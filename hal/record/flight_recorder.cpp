@@ -430,12 +430,16 @@ void FlightRecorder::Impl::write_boxes(const BoxSlot& slot) {
     std::snprintf(seen, sizeof(seen), "%.3f", b.last_seen_s);
     j.begin_object().key("key").string("last_seen_s").key("value").string(seen);
     j.end_object();
+    j.begin_object().key("key").string("prior").key("value").string(b.prior ? "1" : "0");
+    j.end_object();
     j.end_array();
     j.key("cubes").begin_array().begin_object();
     j.key("pose").pose((b.min + b.max) / 2, kIdentity);
     j.key("size").vector3(b.max - b.min);
     if (ground) {
       j.key("color").color(0.55f, 0.45f, 0.30f, 0.25f);
+    } else if (b.prior) {
+      j.key("color").color(0.55f, 0.35f, 0.85f, 0.45f);  // known before, not seen yet: violet
     } else {
       j.key("color").color(1.0f, 0.35f, 0.10f, 0.45f);
     }

@@ -2,6 +2,7 @@
 // groundtruth.txt), read independently of the project's C++ code, and the
 // horizontal geometry of obstacles about the vehicle (world z up, body FRD).
 import fs from 'node:fs';
+import path from 'node:path';
 
 export const DEG = Math.PI / 180;
 
@@ -78,4 +79,20 @@ export function bearingOf(pose, wx, wy) {
   let b = Math.atan2(v[0] * a.right[0] + v[1] * a.right[1], v[0] * a.fwd[0] + v[1] * a.fwd[1]);
   if (b < 0) b += 2 * Math.PI;
   return b;
+}
+
+// A daemon's vehicle.yaml replaying SEQUENCE live at rateHz with the sequence's
+// poses, its outputs in outDir, and the given MAVLink output line (or none).
+export function writeReplayVehicleYaml(file, { mapping, sequence, rateHz, outDir, mavlink, poses }) {
+  fs.writeFileSync(file, [
+    `mapping: ${path.resolve(mapping)}`,
+    'live: true',
+    `frames: {source: replay, sequence: ${path.resolve(sequence)}, rate_hz: ${rateHz}}`,
+    `poses: ${poses ?? '{source: sequence}'}`,
+    'outputs:',
+    `  directory: ${path.resolve(outDir)}`,
+    ...(mavlink ? [`  mavlink: ${mavlink}`] : []),
+    '',
+  ].join('\n'));
+  return file;
 }

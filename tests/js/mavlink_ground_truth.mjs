@@ -12,19 +12,12 @@ import { spawn } from 'node:child_process';
 import dgram from 'node:dgram';
 import fs from 'node:fs';
 import path from 'node:path';
-import { createRequire } from 'node:module';
-import { DEG, bearingOf, nearestOnObject, poseAt, readObjects, readPoses } from './ground_truth.mjs';
+import { REGISTRY, mavlink } from './node_mavlink.mjs';
+import {
+  DEG, bearingOf, nearestOnObject, poseAt, readObjects, readPoses, writeReplayVehicleYaml,
+} from './ground_truth.mjs';
 
-const require = createRequire(import.meta.url);
-let mavlink;
-try {
-  mavlink = require('node-mavlink');
-} catch (e) {
-  console.log('SKIP: node-mavlink is not installed (npm unreachable when tools/test set up tests/js)');
-  process.exit(77);
-}
-const { MavLinkPacketSplitter, MavLinkPacketParser, minimal, common, ardupilotmega } = mavlink;
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY, ...ardupilotmega.REGISTRY };
+const { MavLinkPacketSplitter, MavLinkPacketParser } = mavlink;
 
 const [daemon, sequence, mappingConfig, workDir] = process.argv.slice(2);
 if (!workDir) {
@@ -63,18 +56,11 @@ async function runDaemon(autopilot) {
   socket.on('message', (msg) => datagrams.push([msg, Number(process.hrtime.bigint()) / 1e9]));
   await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
   const port = socket.address().port;
-  const vehicleYaml = path.join(runDir, 'vehicle.yaml');
-  fs.writeFileSync(vehicleYaml, [
-    `mapping: ${path.resolve(mappingConfig)}`,
-    'live: true',
-    `frames: {source: replay, sequence: ${path.resolve(sequence)}, rate_hz: ${RATE_HZ}}`,
-    'poses: {source: sequence}',
-    'outputs:',
-    `  directory: ${path.resolve(runDir, 'out')}`,
-    `  mavlink: {autopilot: ${autopilot}, host: 127.0.0.1, port: ${port}, rate_hz: ${RATE_HZ}, ` +
+  const vehicleYaml = writeReplayVehicleYaml(path.join(runDir, 'vehicle.yaml'), {
+    mapping: mappingConfig, sequence, rateHz: RATE_HZ, outDir: path.join(runDir, 'out'),
+    mavlink: `{autopilot: ${autopilot}, host: 127.0.0.1, port: ${port}, rate_hz: ${RATE_HZ}, ` +
       'system_id: 42, component_id: 195}',
-    '',
-  ].join('\n'));
+  });
   const child = spawn(daemon, ['--config', vehicleYaml], { stdio: ['ignore', 'inherit', 'pipe'] });
   let daemonLog = '';
   child.stderr.on('data', (d) => { daemonLog += d; });

@@ -20,20 +20,12 @@ import dgram from 'node:dgram';
 import fs from 'node:fs';
 import net from 'node:net';
 import path from 'node:path';
-import { createRequire } from 'node:module';
-import { DEG, bearingOf, nearestOnObject, poseAt, readObjects, readPoses } from './ground_truth.mjs';
+import { REGISTRY, mavlink } from './node_mavlink.mjs';
+import {
+  DEG, bearingOf, nearestOnObject, poseAt, readObjects, readPoses, writeReplayVehicleYaml,
+} from './ground_truth.mjs';
 
-const require = createRequire(import.meta.url);
-let mavlink;
-try {
-  mavlink = require('node-mavlink');
-} catch (e) {
-  console.log('SKIP: node-mavlink is not installed (npm unreachable when tools/test set up tests/js)');
-  process.exit(77);
-}
-const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, send, minimal, common,
-  ardupilotmega } = mavlink;
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY, ...ardupilotmega.REGISTRY };
+const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, send, minimal, common } = mavlink;
 
 const [sitlDir, daemon, sequence, mappingConfig, workDir, nedSequence] = process.argv.slice(2);
 if (!nedSequence) {
@@ -165,18 +157,11 @@ socket.on('message', (msg, from) => {
   else scans.push({ timeBootMs: point.timeBootMs, at, points: [point] });
 });
 await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
-const vehicleYaml = path.join(workDir, 'vehicle.yaml');
-fs.writeFileSync(vehicleYaml, [
-  `mapping: ${path.resolve(mappingConfig)}`,
-  'live: true',
-  `frames: {source: replay, sequence: ${path.resolve(sequence)}, rate_hz: ${RATE_HZ}}`,
-  'poses: {source: sequence}',
-  'outputs:',
-  `  directory: ${path.resolve(workDir, 'out')}`,
-  `  mavlink: {autopilot: ardupilot, host: 127.0.0.1, port: ${socket.address().port}, ` +
+const vehicleYaml = writeReplayVehicleYaml(path.join(workDir, 'vehicle.yaml'), {
+  mapping: mappingConfig, sequence, rateHz: RATE_HZ, outDir: path.join(workDir, 'out'),
+  mavlink: `{autopilot: ardupilot, host: 127.0.0.1, port: ${socket.address().port}, ` +
     `rate_hz: ${RATE_HZ}, system_id: 1, component_id: 195}`,
-  '',
-].join('\n'));
+});
 flightStart = now();
 daemonRunning = true;
 const child = spawn(daemon, ['--config', vehicleYaml], { stdio: ['ignore', 'inherit', 'pipe'] });
@@ -199,16 +184,10 @@ const freePort = await new Promise((resolve) => {
 let insAsked = 0;
 insSocket.on('message', (msg) => { tcp.write(msg); insAsked += 1; }); // its TIMESYNC, requests
 await new Promise((resolve) => insSocket.bind(0, '127.0.0.1', resolve));
-const insYaml = path.join(workDir, 'vehicle-ins.yaml');
-fs.writeFileSync(insYaml, [
-  `mapping: ${path.resolve(mappingConfig)}`,
-  'live: true',
-  `frames: {source: replay, sequence: ${path.resolve(nedSequence)}, rate_hz: ${RATE_HZ}}`,
-  `poses: {source: mavlink, mavlink_listen: "127.0.0.1:${freePort}", rate_hz: 50}`,
-  'outputs:',
-  `  directory: ${path.resolve(workDir, 'out-ins')}`,
-  '',
-].join('\n'));
+const insYaml = writeReplayVehicleYaml(path.join(workDir, 'vehicle-ins.yaml'), {
+  mapping: mappingConfig, sequence: nedSequence, rateHz: RATE_HZ, outDir: path.join(workDir, 'out-ins'),
+  poses: `{source: mavlink, mavlink_listen: "127.0.0.1:${freePort}", rate_hz: 50}`,
+});
 insPort = freePort;
 const insStart = now();
 const insDaemon = spawn(daemon, ['--config', insYaml], { stdio: ['ignore', 'inherit', 'pipe'] });

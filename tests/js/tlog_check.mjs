@@ -10,18 +10,9 @@
 //
 // Exit 0: every check passed; 1: a check failed; 77: node-mavlink is not installed.
 import fs from 'node:fs';
-import { createRequire } from 'node:module';
+import { REGISTRY, mavlink } from './node_mavlink.mjs';
 
-const require = createRequire(import.meta.url);
-let mavlink;
-try {
-  mavlink = require('node-mavlink');
-} catch (e) {
-  console.log('SKIP: node-mavlink is not installed (npm unreachable when tools/test set up tests/js)');
-  process.exit(77);
-}
-const { MavLinkPacketSplitter, MavLinkPacketParser, minimal, common, ardupilotmega } = mavlink;
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY, ...ardupilotmega.REGISTRY };
+const { MavLinkPacketSplitter, MavLinkPacketParser } = mavlink;
 
 const bytes = fs.readFileSync(process.argv[2]);
 const autopilot = process.argv[3] ?? 'px4';

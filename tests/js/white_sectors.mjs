@@ -15,18 +15,9 @@
 // is not installed.
 import fs from 'node:fs';
 import path from 'node:path';
-import { createRequire } from 'node:module';
+import { REGISTRY, mavlink } from './node_mavlink.mjs';
 
-const require = createRequire(import.meta.url);
-let mavlink;
-try {
-  mavlink = require('node-mavlink');
-} catch (e) {
-  console.log('SKIP: node-mavlink is not installed (npm unreachable when tools/test set up tests/js)');
-  process.exit(77);
-}
-const { MavLinkPacketSplitter, MavLinkPacketParser, minimal, common } = mavlink;
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
+const { MavLinkPacketSplitter, MavLinkPacketParser } = mavlink;
 const [tlog, sequence, bandArg] = process.argv.slice(2);
 const band = bandArg === undefined ? 5 : Number(bandArg);
 

@@ -1,5 +1,7 @@
 #include "tools/report/report.hpp"
 
+#include <algorithm>
+
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -32,6 +34,7 @@ std::string data_json(const ReportInputs& in) {
     j.begin_object();
     j.key("id").integer(b.id);
     j.key("kind").string(b.kind == FeatureKind::kGround ? "ground" : "obstacle");
+    j.key("prior").boolean(b.prior);
     j.key("min").begin_array().number(b.min.x()).number(b.min.y()).number(b.min.z()).end_array();
     j.key("max").begin_array().number(b.max.x()).number(b.max.y()).number(b.max.z()).end_array();
     j.key("rects").begin_array();
@@ -153,8 +156,11 @@ bool write_report(const std::string& path, const ReportInputs& in, std::string* 
       << kErrorCatcher << kStyle << "</head><body>\n"
       << "<h1>zonemap run: " << html_escape(in.title) << "</h1>\n<p id=\"errors\"></p>\n"
       << "<p>" << in.boxes.size()
-      << " boxes (boxes.csv), drawn with their quadtree footprints; the occupied cells of the "
-         "zones holding a grid at the end"
+      << " boxes (boxes.csv), drawn with their quadtree footprints (obstacles orange, ground "
+         "brown, a prior map's boxes no view has confirmed violet: "
+      << std::count_if(in.boxes.begin(), in.boxes.end(),
+                       [](const ObstacleBox& b) { return b.prior; })
+      << "); the occupied cells of the zones holding a grid at the end"
       << (in.occupied.size() / 3 >= kReportOccupiedCells ? " (a regular sample)" : "")
       << "; the flight in blue. Drag to orbit, wheel to zoom, right-drag to pan.</p>\n";
   if (report_has_3d_view()) {

@@ -9,12 +9,13 @@ const data = JSON.parse(document.getElementById("zonemap-data").textContent);
 const host = document.getElementById("view");
 
 const KIND_COLOURS = { obstacle: 0xff5a1a, ground: 0x8c7350 };
+const PRIOR_COLOUR = 0x8c5ad9; // a prior map's box no view has confirmed yet
 
 function boxMesh(box, group) {
   const size = [0, 1, 2].map((k) => box.max[k] - box.min[k]);
   const centre = [0, 1, 2].map((k) => (box.max[k] + box.min[k]) / 2);
   const geometry = new THREE.BoxGeometry(...size);
-  const colour = KIND_COLOURS[box.kind] ?? 0xffffff;
+  const colour = box.prior ? PRIOR_COLOUR : (KIND_COLOURS[box.kind] ?? 0xffffff);
   const solid = new THREE.Mesh(
     geometry,
     new THREE.MeshBasicMaterial({ color: colour, transparent: true, opacity: box.kind === "ground" ? 0.12 : 0.3, depthWrite: false }),

@@ -14,6 +14,7 @@
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
+#include "hal/output/map_saver.hpp"
 #include "hal/output/run_outputs.hpp"
 #include "hal/replay/replay_frame_source.hpp"
 #include "hal/v4l2/v4l2_source.hpp"
@@ -165,6 +166,15 @@ bool VehicleDaemon::open_sinks(std::string* error) {
     if (!mavlink->open(error)) return false;
     sinks_.push_back(std::move(mavlink));
   }
+  if (config.save_map_every_s > 0.0) {
+    std::error_code ec;
+    std::filesystem::create_directories(config.output_dir, ec);
+    auto saver = std::make_unique<hal::MapSaver>(config.output_dir + "/boxes.csv",
+                                                 config.save_map_every_s, features_->capacity());
+    saver->start();
+    map_saver_ = saver.get();
+    sinks_.push_back(std::move(saver));
+  }
   return true;
 }
 
@@ -278,6 +288,7 @@ void VehicleDaemon::stop() {
 
 bool VehicleDaemon::write_outputs(std::string* error) {
   if (config_.output_dir.empty()) return true;
+  if (map_saver_ != nullptr) map_saver_->stop();  // its last save done: the final one wins
   std::error_code ec;
   std::filesystem::create_directories(config_.output_dir, ec);
   std::vector<ObstacleBox> boxes(features_->capacity());

@@ -8,6 +8,7 @@
 
 #include "hal/frames/frame_source.hpp"
 #include "hal/ins/pose_source.hpp"
+#include "hal/output/map_saver.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/flight_recorder.hpp"
 #include "hal/replay/sequence.hpp"
@@ -69,6 +70,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   std::int64_t frames_mapped_ = 0;
   std::vector<double> frame_ms_;
   record::FlightRecorder* recorder_ = nullptr;  // one of sinks_, when outputs.record is set
+  hal::MapSaver* map_saver_ = nullptr;          // one of sinks_, when outputs.save_map_every_s > 0
   std::int64_t depth_offered_ = 0;
   double last_time_s_ = 0.0;  // the newest mapped frame (mapping thread; read after run)
   Eigen::Isometry3d last_world_T_camera_ = Eigen::Isometry3d::Identity();

@@ -171,6 +171,7 @@ Reader outputs_section(const std::string& path, VehicleConfig* c) {
     hal::read_section(path, node, "outputs",
                       {{"directory", into(&c->output_dir)},
                        {"health_period_s", into(&c->health_period_s)},
+                       {"save_map_every_s", into(&c->save_map_every_s)},
                        {"record",
                         [path, c](const YAML::Node& record) {
                           hal::read_section(path, record, "outputs.record",
@@ -203,6 +204,10 @@ std::string missing_for_sources(const VehicleConfig& c) {
     return "rates and periods must be positive";
   }
   if (c.record_depth_every < 0) return "outputs.record.depth_every must be >= 0";
+  if (!(c.save_map_every_s >= 0.0)) return "outputs.save_map_every_s must be >= 0 (0: at stop)";
+  if (c.save_map_every_s > 0.0 && c.output_dir.empty()) {
+    return "outputs.save_map_every_s needs outputs.directory (the map goes to its boxes.csv)";
+  }
   if (c.poses == Poses::kMavlink) {
     const std::string why = mavlink::validate(c.mavlink_poses);
     if (!why.empty()) return why;

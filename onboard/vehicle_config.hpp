@@ -18,7 +18,9 @@ struct VehicleConfig {
   std::string path;          // this file
   std::string mapping_path;  // the mapping configuration (config/*.yaml)
   std::string prior_path;    // a prior map (boxes.csv) in the feature map from the start
-  std::string camera_path;   // camera.yaml (v4l2; replay: empty = the sequence's)
+  double save_map_every_s =
+      0.0;                  // outputs.save_map_every_s: boxes.csv during the flight (0: at stop)
+  std::string camera_path;  // camera.yaml (v4l2; replay: empty = the sequence's)
 
   enum class FrameSourceKind { kReplay, kV4l2 };
   FrameSourceKind frames = FrameSourceKind::kReplay;

@@ -14,9 +14,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include "hal/config/prior_map.hpp"
 #include "hal/ins_log/ins_logs.hpp"
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
@@ -266,6 +270,91 @@ TEST(Daemon, SigtermEndsTheRunCleanlyWithOutputs) {
   EXPECT_NE(stats.find("\"stopped_by_signal\": 1"), std::string::npos) << stats;
   EXPECT_EQ(stats.find("\"frames_in\": 40,"), std::string::npos) << "stopped early: " << stats;
   EXPECT_FALSE(slurp(f.dir / "out/boxes.csv").empty());
+}
+
+// Whether the next OBSTACLE_DISTANCE within timeout_ms holds an obstacle in range;
+// false also when none came.
+bool next_obstacle_distance_holds_one(UdpReceiver& autopilot, int timeout_ms) {
+  for (auto d = autopilot.receive(timeout_ms); !d.empty(); d = autopilot.receive(timeout_ms)) {
+    const int id = d.size() >= 12 ? (d[7] | d[8] << 8 | d[9] << 16) : -1;
+    if (id != static_cast<int>(mavlink::kObstacleDistanceId)) continue;
+    mavlink::DecodedObstacleDistance m;
+    if (!mavlink::decode_obstacle_distance(d.data(), d.size(), &m)) return false;
+    for (std::uint16_t cm : m.distances) {
+      if (cm <= m.max_distance) return true;
+    }
+    return false;
+  }
+  return false;
+}
+
+int obstacle_rows(const std::string& boxes_csv) {
+  hal::PriorMap map;
+  std::string error;
+  return hal::load_prior_map(boxes_csv, &map, &error) ? static_cast<int>(map.boxes.size()) : -1;
+}
+
+// The flight's sequence with every pose turned about the vertical by 180 degrees:
+// the same path with the camera looking back, never at the posts ahead.
+std::string looking_back(const Flight& f) {
+  const std::string copy = f.dir / "seq-back";
+  std::filesystem::copy(f.sequence, copy, std::filesystem::copy_options::recursive);
+  std::ifstream in(f.sequence + "/groundtruth.txt");
+  std::ofstream out(copy + "/groundtruth.txt");
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream fields(line);
+    double t, x, y, z, qx, qy, qz, qw;
+    if (line.empty() || line[0] == '#' || !(fields >> t >> x >> y >> z >> qx >> qy >> qz >> qw)) {
+      out << line << "\n";
+      continue;
+    }
+    const Eigen::Quaterniond q = turn * Eigen::Quaterniond(qw, qx, qy, qz);
+    out << t << " " << x << " " << y << " " << z << " " << q.x() << " " << q.y() << " " << q.z()
+        << " " << q.w() << "\n";
+  }
+  return copy;
+}
+
+// The map outlives the flight: saved every half second while flying, it is whole
+// after a kill -9, and the next start that takes it as its prior sends the posts
+// to the autopilot from its first message and keeps them to its end, though its
+// camera looks the other way the whole flight.
+TEST(Daemon, AMapSavedInFlightSurvivesKill9AndIsTheNextStartsPrior) {
+  Flight f;
+  make_flight(&f, 4.0, 40);
+  UdpReceiver autopilot;
+  const std::string path = f.dir / "vehicle.yaml";
+  std::ofstream(path) << vehicle_yaml(f, autopilot.port, 4.0) << "  save_map_every_s: 0.5\n";
+  const pid_t pid = spawn_daemon({"--config", path}, f.dir / "run.log");
+  ASSERT_GT(pid, 0);
+  // Flying until a save holds both posts (each datagram paces the look).
+  const std::string saved = f.dir / "out/boxes.csv";
+  for (int i = 0; i < 400 && obstacle_rows(saved) < 2 && !autopilot.receive(1000).empty(); ++i) {
+  }
+  ASSERT_GE(obstacle_rows(saved), 2) << slurp(f.dir / "run.log");
+  kill(pid, SIGKILL);
+  EXPECT_EQ(wait_exit(pid), -100 - SIGKILL);
+  EXPECT_GE(obstacle_rows(saved), 2) << "the saved map is whole after kill -9";
+
+  UdpReceiver second;
+  const std::string again = f.dir / "vehicle-again.yaml";
+  std::ofstream(again) << "mapping: " << f.config << "\nprior: " << saved << "\n"
+                       << "frames: {source: replay, sequence: " << looking_back(f)
+                       << ", rate_hz: 4}\nposes: {source: sequence}\noutputs:\n  directory: "
+                       << (f.dir / "out-again") << "\n  mavlink: {autopilot: px4, host: 127.0.0.1, "
+                       << "port: " << second.port << ", rate_hz: 50}\n";
+  const pid_t restarted = spawn_daemon({"--config", again}, f.dir / "again.log");
+  ASSERT_GT(restarted, 0);
+  EXPECT_TRUE(next_obstacle_distance_holds_one(second, 30000)) << slurp(f.dir / "again.log");
+  EXPECT_EQ(wait_exit(restarted), 0) << slurp(f.dir / "again.log");
+  hal::PriorMap end;
+  std::string error;
+  ASSERT_TRUE(hal::load_prior_map(f.dir / "out-again/boxes.csv", &end, &error)) << error;
+  EXPECT_EQ(end.boxes.size(), 2u) << slurp(f.dir / "out-again/boxes.csv");
+  const std::string csv = slurp(f.dir / "out-again/boxes.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 2 + end.ground_rows_skipped);
+  EXPECT_NE(csv.find(",1\n"), std::string::npos) << "still prior: never seen: " << csv;
 }
 
 TEST(ReplaySequence, PosesFromInsLcmlogWhenThereIsNoGroundTruthMapTheSame) {

@@ -43,7 +43,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
 bool VehicleDaemon::add_prior_map(std::string* error) {
   if (config_.prior_path.empty()) return true;
   hal::PriorMap prior;
-  if (!hal::load_prior_map(config_.prior_path, &prior, error)) return false;
+  if (!hal::load_prior_map(config_.prior_path, camera_.world_z_up, &prior, error)) return false;
   int stored = 0;
   for (const hal::PriorBox& b : prior.boxes) stored += features_->add_prior(b.min, b.max) ? 1 : 0;
   std::fprintf(stderr, "zonemap: prior map %s: %zu obstacles (%d stored whole)\n",

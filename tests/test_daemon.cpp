@@ -291,7 +291,8 @@ bool next_obstacle_distance_holds_one(UdpReceiver& autopilot, int timeout_ms) {
 int obstacle_rows(const std::string& boxes_csv) {
   hal::PriorMap map;
   std::string error;
-  return hal::load_prior_map(boxes_csv, &map, &error) ? static_cast<int>(map.boxes.size()) : -1;
+  return hal::load_prior_map(boxes_csv, true, &map, &error) ? static_cast<int>(map.boxes.size())
+                                                            : -1;
 }
 
 // The flight's sequence with every pose turned about the vertical by 180 degrees:
@@ -350,7 +351,7 @@ TEST(Daemon, AMapSavedInFlightSurvivesKill9AndIsTheNextStartsPrior) {
   EXPECT_EQ(wait_exit(restarted), 0) << slurp(f.dir / "again.log");
   hal::PriorMap end;
   std::string error;
-  ASSERT_TRUE(hal::load_prior_map(f.dir / "out-again/boxes.csv", &end, &error)) << error;
+  ASSERT_TRUE(hal::load_prior_map(f.dir / "out-again/boxes.csv", true, &end, &error)) << error;
   EXPECT_EQ(end.boxes.size(), 2u) << slurp(f.dir / "out-again/boxes.csv");
   const std::string csv = slurp(f.dir / "out-again/boxes.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 2 + end.ground_rows_skipped);

@@ -3,6 +3,7 @@
 // prior until a view finds it occupied, removed when views see its cells free.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,6 +13,7 @@
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #include "zonemap/feature_map.hpp"
+#include "zonemap/geodetic.hpp"
 
 namespace zonemap {
 namespace {
@@ -34,7 +36,7 @@ TEST(PriorMapFile, ReadsObstacleRowsAndSkipsGround) {
                   "7,obstacle,1,2,3,4,5,6,12,3.5,0\n");
   hal::PriorMap map;
   std::string error;
-  ASSERT_TRUE(hal::load_prior_map(path, &map, &error)) << error;
+  ASSERT_TRUE(hal::load_prior_map(path, true, &map, &error)) << error;
   ASSERT_EQ(map.boxes.size(), 2u);
   EXPECT_EQ(map.ground_rows_skipped, 1);
   EXPECT_EQ(map.boxes[0].min, Eigen::Vector3d(-20, -0.25, 0));
@@ -56,15 +58,61 @@ TEST(PriorMapFile, OneBadRowRefusesTheFileNamingItsLine) {
   for (const auto& [rows, expected] : bad) {
     hal::PriorMap map;
     std::string error;
-    EXPECT_FALSE(hal::load_prior_map(write_prior(dir, rows), &map, &error)) << rows;
+    EXPECT_FALSE(hal::load_prior_map(write_prior(dir, rows), true, &map, &error)) << rows;
     EXPECT_NE(error.find(expected), std::string::npos) << error;
     EXPECT_TRUE(map.boxes.empty()) << "never a partial prior";
   }
   std::ofstream(dir / "other.csv") << "x,y,z\n1,2,3\n";
   hal::PriorMap map;
   std::string error;
-  EXPECT_FALSE(hal::load_prior_map(dir / "other.csv", &map, &error));
+  EXPECT_FALSE(hal::load_prior_map(dir / "other.csv", true, &map, &error));
   EXPECT_NE(error.find("other.csv:1: not a boxes.csv"), std::string::npos) << error;
+}
+
+// A survey: obstacles by WGS84 position about the map's origin, NED (or NED turned
+// about north for a z-up world).
+TEST(PriorMapFile, ASurveyBecomesBoxesAboutTheOrigin) {
+  TempDir dir;
+  const Geodetic origin{48.1, 11.5, 520.0};
+  const LocalTangentPlane plane(origin);
+  const Geodetic base = plane.to_geodetic({100.0, 50.0, -1.0});  // 1 m above the origin
+  char row[160];
+  std::snprintf(row, sizeof row, "mast,%.9f,%.9f,%.4f,0.5,30\n", base.latitude_deg,
+                base.longitude_deg, base.height_m);
+  const std::string path = dir / "survey.csv";
+  std::ofstream(path) << "# zonemap survey\norigin,48.1,11.5,520.0\n"
+                      << "name,latitude_deg,longitude_deg,base_height_m,radius_m,height_m\n"
+                      << row;
+  hal::PriorMap ned, up;
+  std::string error;
+  ASSERT_TRUE(hal::load_prior_map(path, false, &ned, &error)) << error;
+  ASSERT_EQ(ned.boxes.size(), 1u);
+  EXPECT_TRUE(ned.boxes[0].min.isApprox(Eigen::Vector3d(99.5, 49.5, -31.0), 1e-6));
+  EXPECT_TRUE(ned.boxes[0].max.isApprox(Eigen::Vector3d(100.5, 50.5, -1.0), 1e-6));
+  EXPECT_EQ(ned.boxes[0].line, 4);
+  ASSERT_TRUE(hal::load_prior_map(path, true, &up, &error)) << error;
+  EXPECT_TRUE(up.boxes[0].min.isApprox(Eigen::Vector3d(99.5, -50.5, 1.0), 1e-6));
+  EXPECT_TRUE(up.boxes[0].max.isApprox(Eigen::Vector3d(100.5, -49.5, 31.0), 1e-6));
+
+  const std::pair<const char*, const char*> bad[] = {
+      {"name,latitude_deg,longitude_deg,base_height_m,radius_m,height_m\n",
+       "survey.csv:2: a survey first gives origin"},
+      {"origin,95,11.5,520\n", "survey.csv:2: the origin is not a WGS84"},
+      {"origin,48.1,11.5,520\nmast,48.1,11.5,520,0.5,30\n", "survey.csv:3: expected the header"},
+      {"origin,48.1,11.5,520\nname,latitude_deg,longitude_deg,base_height_m,radius_m,height_m\n"
+       "mast,48.1,11.5,520,0,30\n",
+       "survey.csv:4: radius and height must be > 0"},
+      {"origin,48.1,11.5,520\nname,latitude_deg,longitude_deg,base_height_m,radius_m,height_m\n"
+       "mast,48.1,191,520,1,30\n",
+       "survey.csv:4: not a WGS84"},
+      {"", "a survey without its origin"}};
+  for (const auto& [rows, expected] : bad) {
+    std::ofstream(path) << "# zonemap survey\n" << rows;
+    hal::PriorMap map;
+    EXPECT_FALSE(hal::load_prior_map(path, false, &map, &error)) << rows;
+    EXPECT_NE(error.find(expected), std::string::npos) << error;
+    EXPECT_TRUE(map.boxes.empty());
+  }
 }
 
 TEST(PriorMap, ABoxAcrossAZoneFaceIsOneBoxInTheOutputMarkedPrior) {

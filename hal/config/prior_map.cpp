@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "zonemap/geodetic.hpp"
+
 namespace zonemap::hal {
 namespace {
 
@@ -37,53 +39,142 @@ std::string check_box(const PriorBox& b) {
   return {};
 }
 
-}  // namespace
-
-bool load_prior_map(const std::string& path, PriorMap* map, std::string* error) {
-  *map = PriorMap{};
-  std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot open the prior map";
-    return false;
-  }
-  std::string line;
+// Reads lines, numbering them; fail() names the file and line.
+struct LineReader {
+  std::ifstream in;
+  std::string path;
   int number = 0;
-  const auto fail = [&](const std::string& why) {
+  bool next(std::string* line) {
+    if (!std::getline(in, *line)) return false;
+    ++number;
+    if (!line->empty() && line->back() == '\r') line->pop_back();
+    return true;
+  }
+  bool fail(PriorMap* map, std::string* error, const std::string& why) const {
     *error = path + ":" + std::to_string(number) + ": " + why;
     map->boxes.clear();
     return false;
-  };
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (number == 1) {
-      if (line.rfind("id,kind,xmin,ymin,zmin,xmax,ymax,zmax", 0) != 0) {
-        return fail(
-            "not a boxes.csv (its header must start id,kind,xmin,ymin,zmin,xmax,ymax,zmax)");
-      }
-      continue;
+  }
+};
+
+bool parse_numbers(const std::vector<std::string>& f, std::size_t first, std::size_t count,
+                   double* out, std::string* bad) {
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!parse_number(f[first + i], &out[i])) {
+      *bad = "'" + f[first + i] + "' is not a number";
+      return false;
     }
+  }
+  return true;
+}
+
+bool read_boxes_csv(LineReader& r, PriorMap* map, std::string* error) {
+  std::string line;
+  while (r.next(&line)) {
     if (line.empty() || line[0] == '#') continue;
     const std::vector<std::string> f = fields_of(line);
-    if (f.size() < 8) return fail("expected id,kind,xmin,ymin,zmin,xmax,ymax,zmax");
+    if (f.size() < 8) return r.fail(map, error, "expected id,kind,xmin,ymin,zmin,xmax,ymax,zmax");
     if (f[1] == "ground") {
       ++map->ground_rows_skipped;
       continue;
     }
-    if (f[1] != "obstacle") return fail("kind must be obstacle or ground, not '" + f[1] + "'");
-    PriorBox b;
-    b.line = number;
+    if (f[1] != "obstacle")
+      return r.fail(map, error, "kind must be obstacle or ground, not '" + f[1] + "'");
     double v[6];
-    for (int i = 0; i < 6; ++i) {
-      if (!parse_number(f[2 + i], &v[i])) return fail("'" + f[2 + i] + "' is not a number");
-    }
+    std::string why;
+    if (!parse_numbers(f, 2, 6, v, &why)) return r.fail(map, error, why);
+    PriorBox b;
+    b.line = r.number;
     b.min = Eigen::Vector3d(v[0], v[1], v[2]);
     b.max = Eigen::Vector3d(v[3], v[4], v[5]);
-    const std::string why = check_box(b);
-    if (!why.empty()) return fail(why);
+    why = check_box(b);
+    if (!why.empty()) return r.fail(map, error, why);
     map->boxes.push_back(b);
   }
   return true;
+}
+
+// A surveyed obstacle (base point, radius, height) as a box about the origin.
+PriorBox survey_box(const LocalTangentPlane& plane, const double v[5], bool world_z_up) {
+  const Eigen::Vector3d base = plane.to_ned(Geodetic{v[0], v[1], v[2]});
+  const double r = v[3];
+  PriorBox b;
+  if (!world_z_up) {
+    b.min = Eigen::Vector3d(base.x() - r, base.y() - r, base.z() - v[4]);
+    b.max = Eigen::Vector3d(base.x() + r, base.y() + r, base.z());
+  } else {  // north, west, up
+    b.min = Eigen::Vector3d(base.x() - r, -base.y() - r, -base.z());
+    b.max = Eigen::Vector3d(base.x() + r, -base.y() + r, -base.z() + v[4]);
+  }
+  return b;
+}
+
+bool read_survey(LineReader& r, bool world_z_up, PriorMap* map, std::string* error) {
+  std::string line;
+  LocalTangentPlane plane;
+  bool header = false;
+  while (r.next(&line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const std::vector<std::string> f = fields_of(line);
+    std::string why;
+    if (!plane.has_origin()) {
+      double o[3];
+      if (f.size() != 4 || f[0] != "origin") {
+        return r.fail(map, error, "a survey first gives origin,LATITUDE,LONGITUDE,HEIGHT");
+      }
+      if (!parse_numbers(f, 1, 3, o, &why)) return r.fail(map, error, why);
+      if (!(std::abs(o[0]) <= 90.0 && std::abs(o[1]) <= 180.0)) {
+        return r.fail(map, error, "the origin is not a WGS84 latitude and longitude");
+      }
+      plane = LocalTangentPlane(Geodetic{o[0], o[1], o[2]});
+      continue;
+    }
+    if (!header) {
+      if (line.rfind("name,latitude_deg,longitude_deg,base_height_m,radius_m,height_m", 0) != 0) {
+        return r.fail(map, error,
+                      "expected the header name,latitude_deg,longitude_deg,base_height_m,radius_m,"
+                      "height_m");
+      }
+      header = true;
+      continue;
+    }
+    if (f.size() != 6) return r.fail(map, error, "expected name,lat,lon,base_height,radius,height");
+    double v[5];
+    if (!parse_numbers(f, 1, 5, v, &why)) return r.fail(map, error, why);
+    if (!(std::abs(v[0]) <= 90.0 && std::abs(v[1]) <= 180.0)) {
+      return r.fail(map, error, "not a WGS84 latitude and longitude");
+    }
+    if (!(v[3] > 0.0) || !(v[4] > 0.0)) return r.fail(map, error, "radius and height must be > 0");
+    PriorBox b = survey_box(plane, v, world_z_up);
+    b.line = r.number;
+    why = check_box(b);
+    if (!why.empty()) return r.fail(map, error, why);
+    map->boxes.push_back(b);
+  }
+  if (!plane.has_origin()) return r.fail(map, error, "a survey without its origin");
+  return true;
+}
+
+}  // namespace
+
+bool load_prior_map(const std::string& path, bool world_z_up, PriorMap* map, std::string* error) {
+  *map = PriorMap{};
+  LineReader r;
+  r.path = path;
+  r.in.open(path);
+  if (!r.in) {
+    *error = path + ": cannot open the prior map";
+    return false;
+  }
+  std::string first;
+  if (!r.next(&first)) return r.fail(map, error, "empty: not a boxes.csv or a survey");
+  if (first.rfind("# zonemap survey", 0) == 0) return read_survey(r, world_z_up, map, error);
+  if (first.rfind("id,kind,xmin,ymin,zmin,xmax,ymax,zmax", 0) != 0) {
+    return r.fail(map, error,
+                  "not a boxes.csv (its header must start id,kind,xmin,ymin,zmin,xmax,ymax,zmax) "
+                  "nor a survey (# zonemap survey)");
+  }
+  return read_boxes_csv(r, map, error);
 }
 
 }  // namespace zonemap::hal

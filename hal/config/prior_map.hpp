@@ -1,10 +1,13 @@
 // A prior map: obstacles known before the flight (a saved map, a survey), read at
 // start-up into a fixed list that FeatureMap::add_prior takes. Formats
 // (docs/FORMATS.md §2, §2b): the project's own boxes.csv (obstacle rows; ground
-// rows are skipped and counted), world frame, metres. Every row is checked: a
-// number that does not parse, NaN, a box inside out, wider than 1 km or reaching
-// below -1 km or past 1,000 km is an error naming the file and line; the map is
-// then not used at all (never a partial prior).
+// rows are skipped and counted), world frame, metres; or a survey (first line
+// "# zonemap survey"): the map's WGS84 origin, then one obstacle a row by
+// latitude, longitude, base height, radius and height, turned into a box about
+// the origin (NED; a z-up world is NED turned about north: x north, y west, z up).
+// Every row is checked: a number that does not parse, NaN, a box inside out,
+// wider than 1 km or reaching below -1 km or past 1,000 km is an error naming the
+// file and line; the map is then not used at all (never a partial prior).
 #pragma once
 
 #include <cstddef>
@@ -30,6 +33,6 @@ inline constexpr double kPriorMaxExtentM = 1000.0;  // wider: not an obstacle, a
 inline constexpr double kPriorLowestM = -1000.0;
 inline constexpr double kPriorFarthestM = 1.0e6;
 
-bool load_prior_map(const std::string& path, PriorMap* map, std::string* error);
+bool load_prior_map(const std::string& path, bool world_z_up, PriorMap* map, std::string* error);
 
 }  // namespace zonemap::hal

@@ -611,7 +611,7 @@ std::vector<float> ReplayRun::occupied_sample(std::size_t most) {
 // paper's a-priori knowledge); a file with one bad row is not used at all.
 bool ReplayRun::add_prior_map(const std::string& path, bool quiet, std::string* error) {
   hal::PriorMap prior;
-  if (!hal::load_prior_map(path, &prior, error)) return false;
+  if (!hal::load_prior_map(path, sequence_.camera().world_z_up, &prior, error)) return false;
   int stored = 0;
   for (const hal::PriorBox& b : prior.boxes) stored += features_->add_prior(b.min, b.max) ? 1 : 0;
   if (!quiet) {

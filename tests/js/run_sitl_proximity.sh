@@ -1,6 +1,6 @@
 #!/bin/sh
 # ArduPilot (software in the loop) reading the daemon's obstacles, checked by
-# sitl_proximity.mjs on the posts-staggered flight (151 frames, 10 Hz, the
+# sitl_proximity.mjs on the posts-staggered flight (240 frames ending in a 10 s hover, 10 Hz, the
 # outdoor config), then a daemon taking its poses from ArduPilot's EKF, in a
 # private network namespace: ArduPilot listens on every
 # interface. Exit 77 (skipped, with the reason) without ArduPilot's SITL build

@@ -166,12 +166,18 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
   } else if (name == "posts-staggered") {
     // No mirror symmetry: a link that swapped left and right, or a sector off by
     // one, puts a post where none stands.
-    s->description = "three posts staggered either side of the track, flown past";
+    s->description = "three posts staggered either side of the track, flown in, a hover";
     s->config = "config/paper-flight2.yaml";
     s->scene.cylinders.push_back({"post_right_near", Eigen::Vector2d(30.0, -2.5), 0.25, 0.0, 8.0});
     s->scene.cylinders.push_back({"post_left", Eigen::Vector2d(40.0, 6.0), 0.25, 0.0, 8.0});
     s->scene.cylinders.push_back({"post_right_far", Eigen::Vector2d(50.0, -9.0), 0.25, 0.0, 8.0});
-    s->trajectory = straight({0, 0, 3.0}, {60, 0, 3.0}, 4.0, 10 * kDeg, rate);
+    // In, then a 10 s hover among the posts (one behind right, one ahead left, one
+    // ahead right: a steady scene in three sectors).
+    s->trajectory = straight({0, 0, 3.0}, {35, 0, 3.0}, 4.0, 10 * kDeg, rate);
+    const TimedPose hover = s->trajectory.back();
+    for (int i = 1; i <= static_cast<int>(10.0 * rate); ++i) {
+      s->trajectory.push_back({hover.time_s + i / rate, hover.world_T_camera});
+    }
   } else if (name == "treeline-dense") {
     // A tree line as users fly it: 18 trees 5.2 m apart with 0.5-3 m gaps, 9-17 m
     // tall, approached from 70 m at 15-25 m altitude (first seen at 40-50 m, where

@@ -149,7 +149,7 @@ TEST(PriorMap, WhenTheStoreIsFullTheLeastRelevantPiecesAreCountedOut) {
 TEST(PriorMap, AnUnseenPostStaysPriorOneSeenFreeGoesOneOnAPostIsConfirmed) {
   TempDir dir;
   const std::string sequence = dir / "seq";
-  const std::string config = testing::write_test_scenario("posts-through", sequence, 10.0, 2);
+  const std::string config = testing::write_test_scenario("posts-through", sequence, 10.0, 4);
   ASSERT_FALSE(config.empty());
   tools::ReplayOptions options = testing::quiet_replay(sequence, config);
   options.prior_path = write_prior(dir,
@@ -194,7 +194,7 @@ TEST(PriorMap, AnUnseenPostStaysPriorOneSeenFreeGoesOneOnAPostIsConfirmed) {
 TEST(PriorMap, ASecondFlightWithTheFirstsMapHasItsBoxesFromTheFirstFrame) {
   TempDir dir;
   const std::string sequence = dir / "seq";
-  const std::string config = testing::write_test_scenario("posts-through", sequence, 10.0, 2);
+  const std::string config = testing::write_test_scenario("posts-through", sequence, 10.0, 4);
   ASSERT_FALSE(config.empty());
   std::string error;
   tools::ReplayRun first;

@@ -222,6 +222,11 @@ std::string VehicleDaemon::describe() const {
     out << "zonemap: recording to " << config_.record_path << " (its own thread; "
         << mib(recorder_->reserved_bytes()) << " MiB of slots, outside the mapping budget)\n";
   }
+  if (map_saver_ != nullptr) {
+    out << "zonemap: saving the map every " << config_.save_map_every_s << " s to "
+        << config_.output_dir << "/boxes.csv (its own thread; " << mib(map_saver_->reserved_bytes())
+        << " MiB, outside the mapping budget)\n";
+  }
   return out.str();
 }
 

@@ -32,6 +32,7 @@ class MapSaver final : public ObstacleSink {
   void publish(const ObstacleUpdate& update, double now_s) override;
   void report(HealthSnapshot* health) const override;
   std::int64_t saves() const { return saves_.load(std::memory_order_relaxed); }
+  std::size_t reserved_bytes() const { return boxes_.size() * sizeof(ObstacleBox); }
 
  private:
   void run();

@@ -74,6 +74,7 @@ TEST(LcmCodec, ObstacleMapRoundTripsWithFootprintsWithoutAllocating) {
     boxes[i].max = boxes[i].min + Eigen::Vector3d(1, 1, 5);
     boxes[i].cells = static_cast<std::int32_t>(100 + i);
     boxes[i].last_seen_s = 12.25 + static_cast<double>(i);
+    boxes[i].prior = i == 2;  // from a prior map, unconfirmed
     offsets.push_back(static_cast<std::uint32_t>(rects.size()));
     counts.push_back(static_cast<std::uint32_t>(i == 3 ? 9 : i));  // box 3: more than 8
     for (std::uint32_t k = 0; k < counts.back(); ++k) {
@@ -106,6 +107,7 @@ TEST(LcmCodec, ObstacleMapRoundTripsWithFootprintsWithoutAllocating) {
     EXPECT_EQ(d.max[2], 2.0);
     EXPECT_EQ(d.cells, 100 + b);
     EXPECT_EQ(d.last_seen_utime, 12'250'000 + 1'000'000 * b);
+    EXPECT_EQ(d.prior, b == 2);
     EXPECT_EQ(d.num_footprint, b == 3 ? 0 : b);  // too many rectangles: the box alone
     for (int k = 0; k < d.num_footprint; ++k) {
       EXPECT_EQ(d.footprint[static_cast<std::size_t>(k)][1], static_cast<float>(k));

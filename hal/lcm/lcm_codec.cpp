@@ -76,6 +76,7 @@ void ObstacleMapMessage::fill(std::int64_t utime, const Eigen::Vector3d& vehicle
     }
     out.cells = in.cells;
     out.last_seen_utime = static_cast<std::int64_t>(std::llround(in.last_seen_s * 1e6));
+    out.prior = in.prior;
     const std::size_t r = rects == nullptr ? 0 : rect_counts[b];
     // A shape larger than the message allows is sent as its box alone (num_footprint 0).
     out.num_footprint = r <= max_rects_ ? static_cast<std::int32_t>(r) : 0;

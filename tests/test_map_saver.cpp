@@ -54,13 +54,9 @@ TEST(MapSaver, HandsBoxesOverWithoutWaitingAndTheFileIsAlwaysWhole) {
   EXPECT_EQ(allocations, 0) << "the output thread's side never allocates";
   hal::HealthSnapshot health;
   saver.report(&health);
-  std::int64_t saves = -1, skipped = -1, failed = -1;
-  for (int i = 0; i < health.named; ++i) {
-    const std::string name = health.names[i];
-    if (name == "map_saves") saves = health.values[i];
-    if (name == "map_saves_skipped_busy") skipped = health.values[i];
-    if (name == "map_saves_failed") failed = health.values[i];
-  }
+  const std::int64_t saves = testing::named_value(health, "map_saves");
+  const std::int64_t skipped = testing::named_value(health, "map_saves_skipped_busy");
+  const std::int64_t failed = testing::named_value(health, "map_saves_failed");
   EXPECT_GT(saves, 0);
   EXPECT_EQ(saves + skipped, 300) << "every due update saved or counted as skipped";
   EXPECT_EQ(failed, 0);
@@ -78,11 +74,7 @@ TEST(MapSaver, AFileThatCannotBeWrittenIsCountedNotFatal) {
   saver.stop();  // the write in progress finishes first
   hal::HealthSnapshot health;
   saver.report(&health);
-  std::int64_t failed = -1;
-  for (int i = 0; i < health.named; ++i) {
-    if (std::string(health.names[i]) == "map_saves_failed") failed = health.values[i];
-  }
-  EXPECT_EQ(failed, 1);
+  EXPECT_EQ(testing::named_value(health, "map_saves_failed"), 1);
   EXPECT_EQ(saver.saves(), 0);
 }
 

@@ -8,6 +8,7 @@
 #include "hal/mavlink/autopilot_monitor.hpp"
 #include "hal/mavlink/mavlink_inbound.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "test_support.hpp"
 
 using namespace zonemap;
 
@@ -110,12 +111,7 @@ TEST(AutopilotMonitor, CountsTheAutopilotsHeartbeatsAndNoticesSilence) {
   EXPECT_FALSE(monitor.autopilot_present());
   hal::HealthSnapshot h;
   monitor.report(&h);
-  auto value = [&h](const std::string& name) {
-    for (int i = 0; i < h.named; ++i) {
-      if (name == h.names[i]) return h.values[i];
-    }
-    return std::int64_t{-99};
-  };
+  const auto value = [&h](const char* name) { return zonemap::testing::named_value(h, name); };
   EXPECT_EQ(value("mavlink_autopilot_heartbeats"), 5);
   EXPECT_EQ(value("mavlink_autopilot_lost"), 1);
   EXPECT_EQ(value("mavlink_autopilot_present"), 0);
@@ -143,9 +139,5 @@ TEST(AutopilotMonitor, ReadsWhetherTheAutopilotTakesProximityData) {
   EXPECT_EQ(monitor.proximity_state(), 0);
   hal::HealthSnapshot h;
   monitor.report(&h);
-  std::int64_t lost = -1;
-  for (int i = 0; i < h.named; ++i) {
-    if (std::string(h.names[i]) == "mavlink_autopilot_proximity_lost") lost = h.values[i];
-  }
-  EXPECT_EQ(lost, 2);
+  EXPECT_EQ(zonemap::testing::named_value(h, "mavlink_autopilot_proximity_lost"), 2);
 }

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/config.hpp"
 #include "zonemap/ins_gate.hpp"
@@ -49,6 +50,14 @@ class TempDir {
 };
 
 // A whole text file, or "" when it cannot be read.
+// A counter a component added to a health snapshot by name; -99 when it is not there.
+inline std::int64_t named_value(const hal::HealthSnapshot& health, const std::string& name) {
+  for (int i = 0; i < health.named; ++i) {
+    if (name == health.names[i]) return health.values[i];
+  }
+  return -99;
+}
+
 inline std::string read_text(const std::string& path) {
   std::ifstream in(path);
   std::stringstream s;

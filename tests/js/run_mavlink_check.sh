@@ -5,10 +5,7 @@
 #   run_mavlink_check.sh SIM DAEMON SOURCE_DIR WORK_DIR
 set -e
 sim=$1 daemon=$2 source=$3 work=$4
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 "$sim" posts-around "$work/seq" --width 640 --rate 10 --frames 120 >/dev/null
 exec node "$source/tests/js/mavlink_ground_truth.mjs" "$daemon" "$work/seq" \

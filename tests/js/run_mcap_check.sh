@@ -7,10 +7,7 @@
 #   run_mcap_check.sh SIM REPLAY DAEMON SOURCE_DIR WORK_DIR
 set -e
 sim=$1 replay=$2 daemon=$3 source=$4 work=$5
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 "$sim" posts-around "$work/seq" --width 640 --rate 10 --frames 120 >/dev/null
 for mode in single pipeline; do

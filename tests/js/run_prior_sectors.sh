@@ -6,10 +6,7 @@
 #   run_prior_sectors.sh SIM REPLAY SOURCE_DIR WORK_DIR
 set -e
 sim=$1 replay=$2 source=$3 work=$4
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 "$sim" posts-through "$work/seq" --width 320 --rate 10 --frames 60 >/dev/null
 # Every pose turned 180 degrees about the vertical: the camera looks back along the track.

@@ -12,10 +12,7 @@ if [ -z "$chromium" ]; then
   echo "SKIP: Chromium is not installed (tools/test installs Debian's chromium)"
   exit 77
 fi
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 "$sim" posts-around "$work/seq" --width 640 --rate 10 --frames 120 >/dev/null
 for mode in single pipeline; do

@@ -12,10 +12,7 @@ if [ ! -x "$sitl/arducopter" ]; then
   echo "SKIP: no ArduPilot SITL build at $sitl (the shared folder beside the clone holds it)"
   exit 77
 fi
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 mkdir -p "$work"
 "$sim" posts-staggered "$work/seq" --width 640 --rate 10 >/dev/null

@@ -5,10 +5,7 @@
 #   run_tlog_check.sh SIM REPLAY SOURCE_DIR WORK_DIR
 set -e
 sim=$1 replay=$2 source=$3 work=$4
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 "$sim" posts-through "$work/seq" --width 640 --rate 10 --frames 80 >/dev/null
 "$replay" "$work/seq" --config "$source/config/paper-flight3.yaml" --out "$work/run" --quiet \

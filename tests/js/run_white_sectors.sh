@@ -6,10 +6,7 @@
 #   run_white_sectors.sh SIM REPLAY SOURCE_DIR WORK_DIR
 set -e
 sim=$1 replay=$2 source=$3 work=$4
-if ! command -v node >/dev/null 2>&1; then
-  echo "SKIP: Node.js is not installed (tools/test installs it from Debian)"
-  exit 77
-fi
+. "$(dirname "$0")/need_node.sh"
 rm -rf "$work"
 for scene in white-wall white-wall-beside white-tower; do
   "$sim" "$scene" "$work/$scene" --width 640 --rate 5 >/dev/null

@@ -15,6 +15,7 @@
 #include "hal/mavlink/mavlink_inbound.hpp"
 #include "hal/mavlink/mavlink_pose_source.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "hal/os/allocation_counter.hpp"
 
 using namespace zonemap;
 
@@ -105,6 +106,8 @@ TEST(MavlinkPoseSource, ABadValueAnotherSystemAndACorruptFrameCostOnlyThemselves
   std::uint8_t buf[128];
   const Eigen::Quaternionf level = Eigen::Quaternionf::Identity();
   source.on_datagram(buf, timesync_answer(0.995, 100.0, buf), poses, 1.005);
+  poses.got.reserve(16);      // the test's sink: so that only the source's work is counted
+  os::AllocationScope scope;  // the INS thread's work allocates nothing, rejections included
   for (int i = 0; i < 10; ++i) {
     const auto ms = static_cast<std::uint32_t>(100000 + 20 * i);
     source.on_datagram(buf, attitude(ms, level, buf), poses, 1.0 + 0.02 * i);
@@ -114,6 +117,7 @@ TEST(MavlinkPoseSource, ABadValueAnotherSystemAndACorruptFrameCostOnlyThemselves
     if (i == 8) n = position(ms, 50, 0, -10, buf, 2);  // another vehicle's
     source.on_datagram(buf, n, poses, 1.0 + 0.02 * i);
   }
+  EXPECT_EQ(scope.counted().allocations, 0);
   EXPECT_EQ(poses.got.size(), 7u);  // 10 - NaN - corrupt - other vehicle
   const hal::PoseSourceCounters c = source.counters();
   EXPECT_EQ(c.malformed, 1);

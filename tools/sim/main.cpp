@@ -1,5 +1,9 @@
 // zonemap-sim SCENARIO OUT_DIR [--width N] [--rate HZ] [--seed N] [--frames N]
-// Writes a generated flight in the replay layout (FORMATS.md §1).
+//             [--noise-px S] [--holes F]
+// Writes a generated flight in the replay layout (FORMATS.md §1). --noise-px: the
+// matching noise applied (eq. 1's sigma in pixels; default 0.125, half of the paper
+// camera's 0.25 that the configs assume); --holes: the fraction of pixels dropped at
+// random (default 0.02; 8x8 blocks are dropped besides).
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -11,7 +15,7 @@ int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: zonemap-sim SCENARIO OUT_DIR [--width N] [--rate HZ] [--seed N] "
-                 "[--frames N]\nscenarios:");
+                 "[--frames N] [--noise-px S] [--holes F]\nscenarios:");
     for (const auto& n : scenario_names()) std::fprintf(stderr, " %s", n.c_str());
     std::fprintf(stderr, "\n");
     return 2;
@@ -36,6 +40,10 @@ int main(int argc, char** argv) {
       options.seed = render.seed;
     } else if (arg == "--frames") {
       max_frames = std::strtol(value, &end, 10);
+    } else if (arg == "--noise-px") {
+      render.noise_sigma_px = std::strtod(value, &end);
+    } else if (arg == "--holes") {
+      render.hole_fraction = std::strtod(value, &end);
     } else {
       std::fprintf(stderr, "zonemap-sim: unknown option %s\n", arg.c_str());
       return 2;
@@ -44,6 +52,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "zonemap-sim: bad value '%s' for %s\n", value, arg.c_str());
       return 2;
     }
+  }
+  if (!(render.noise_sigma_px >= 0.0 && render.noise_sigma_px <= 4.0) ||
+      !(render.hole_fraction >= 0.0 && render.hole_fraction <= 0.9)) {
+    std::fprintf(stderr, "zonemap-sim: --noise-px must be in [0, 4], --holes in [0, 0.9]\n");
+    return 2;
   }
   Scenario scenario;
   std::string error;

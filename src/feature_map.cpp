@@ -705,6 +705,12 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
                                  static_cast<int>(terrain_[static_cast<std::size_t>(y) * nx + x]));
     }
   }
+  if (standing_height != INT32_MAX && ground_band_cells_ > 0 && !ground &&
+      within_ground_around(lo, hi, top_height(cells, count))) {
+    ++counters_.objects_in_ground_band;
+    ground = true;
+    standing_height = INT32_MAX;
+  }
   if (standing_height != INT32_MAX) {
     const int z_ground = z_up_ ? standing_height : nz - 1 - standing_height;
     lo.z = std::min(lo.z, z_ground);
@@ -722,6 +728,33 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
          CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
          CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z},
          static_cast<std::int32_t>(count), priors_live_ > 0 && measured(zone, cells, count));
+}
+
+int FeatureMap::top_height(const std::uint32_t* cells, std::size_t count) const {
+  int top = INT32_MIN;
+  for (std::size_t k = 0; k < count; ++k) top = std::max(top, height_of(cell_z(cells[k])));
+  return top;
+}
+
+// Far grazing views smear the ground into a band whose runs vary from column
+// to column by more than the measured band's scatter; a patch of it standing a
+// cell or two above the band's measure is no object when the ground around it
+// rises as high: at least half of the measured columns within a window radius
+// of its box (outside it) have runs reaching its top, give or take a cell.
+bool FeatureMap::within_ground_around(const CellIndex& lo, const CellIndex& hi, int top) const {
+  const int r = ground_window_cells_;
+  const int nx = dims_[0], ny = dims_[1];
+  int measured = 0, as_high = 0;
+  for (int y = std::max(0, lo.y - r); y <= std::min(ny - 1, hi.y + r); ++y) {
+    for (int x = std::max(0, lo.x - r); x <= std::min(nx - 1, hi.x + r); ++x) {
+      if (x >= lo.x && x <= hi.x && y >= lo.y && y <= hi.y) continue;
+      const std::size_t c = static_cast<std::size_t>(y) * nx + x;
+      if (terrain_[c] == kNoHeight || run_top_[c] == kNoHeight) continue;
+      ++measured;
+      as_high += run_top_[c] + kBandScatterCells >= top ? 1 : 0;
+    }
+  }
+  return measured > 0 && 2 * as_high >= measured;
 }
 
 // Whether views found the object occupied: a tenth of its cells above the value

@@ -68,6 +68,7 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"evicted\": " << s.feature_counters.features_evicted
       << ", \"dropped\": " << s.feature_counters.features_dropped
       << ", \"objects_too_small\": " << s.feature_counters.objects_too_small
+      << ", \"objects_in_ground_band\": " << s.feature_counters.objects_in_ground_band
       << ", \"objects_split\": " << s.feature_counters.objects_split
       << ", \"shapes_truncated\": " << s.feature_counters.shapes_truncated
       << ", \"cells_reintegrated\": " << s.feature_counters.cells_reintegrated

@@ -76,12 +76,13 @@ struct FeatureCounters {
   std::int64_t extractions = 0;
   std::int64_t features_added = 0;
   std::int64_t features_updated = 0;
-  std::int64_t features_removed = 0;   // gone from the grid on re-extraction
-  std::int64_t features_evicted = 0;   // store full: a less relevant feature made room
-  std::int64_t features_dropped = 0;   // store full: the new feature was the least relevant
-  std::int64_t objects_too_small = 0;  // fewer than min_cells: noise
-  std::int64_t objects_split = 0;      // components split at value dips into several objects
-  std::int64_t shapes_truncated = 0;   // quadtree pool full: box kept without its shape
+  std::int64_t features_removed = 0;        // gone from the grid on re-extraction
+  std::int64_t features_evicted = 0;        // store full: a less relevant feature made room
+  std::int64_t features_dropped = 0;        // store full: the new feature was the least relevant
+  std::int64_t objects_too_small = 0;       // fewer than min_cells: noise
+  std::int64_t objects_in_ground_band = 0;  // no higher than the ground around them: ground
+  std::int64_t objects_split = 0;           // components split at value dips into several objects
+  std::int64_t shapes_truncated = 0;        // quadtree pool full: box kept without its shape
   std::int64_t cells_reintegrated = 0;
   // A-priori features (add_prior): pieces stored, confirmed occupied by a view,
   // removed when views saw their cells free, not stored (the store was full).
@@ -193,6 +194,8 @@ class FeatureMap : public ZoneObserver {
   void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells, bool measured);
   bool measured(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count) const;
+  int top_height(const std::uint32_t* cells, std::size_t count) const;
+  bool within_ground_around(const CellIndex& lo, const CellIndex& hi, int top) const;
   double relevance(const Feature& f) const;
   // Whether part of the box of world cells [min, max] is in the camera's view:
   // one of its corners, edge middles, face centres or centre projects into the

@@ -197,18 +197,18 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
   } else if (name == "field-grazing") {
     // Flat open ground seen at grazing angles, as a helicopter flies over fields:
     // 3-25 m altitude, the camera looking at the ground 35-60 m ahead (5-35 deg down
-    // there, Δd of eq. 1 1.5-4.5 m), a barn and a few trees 40-75 m ahead. Every box
-    // on the ground between them is a false obstacle.
-    s->description = "a flat field seen at grazing angles, a barn and trees beyond, at 3-25 m";
+    // there, Δd of eq. 1 1.5-4.5 m), a barn and four trees 42-65 m ahead (passed at
+    // 20-45 m). Every box on the ground between them is a false obstacle.
+    s->description = "a flat field seen at grazing angles, a barn and trees on it, at 3-25 m";
     s->config = "config/paper-flight2.yaml";
     Rng rng(options.seed);
     const double altitude = 3.0 + 22.0 * rng.uniform();
     const double look_at = 35.0 + 25.0 * rng.uniform();
-    const double barn_x = 60.0 + 15.0 * rng.uniform(), barn_y = -20.0 + 10.0 * rng.uniform();
+    const double barn_x = 45.0 + 8.0 * rng.uniform(), barn_y = -20.0 + 10.0 * rng.uniform();
     s->scene.boxes.push_back({"barn", Eigen::Vector3d(barn_x, barn_y, 0.0),
                               Eigen::Vector3d(barn_x + 12.0, barn_y + 8.0, 6.0)});
     for (int i = 0; i < 4; ++i) {
-      const double x = 55.0 + 20.0 * rng.uniform(), y = 5.0 + 7.0 * i + 2.0 * rng.uniform();
+      const double x = 42.0 + 16.0 * rng.uniform(), y = 5.0 + 7.0 * i + 2.0 * rng.uniform();
       s->scene.cylinders.push_back({"tree_" + std::to_string(i + 1), Eigen::Vector2d(x, y),
                                     1.0 + rng.uniform(), 0.0, 6.0 + 6.0 * rng.uniform()});
     }

@@ -3,6 +3,10 @@
 // judged by what it left behind.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <fstream>
+
+#include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 
 namespace zonemap::tools {
@@ -127,6 +131,42 @@ TEST(Evaluate, ATopNeverSeenCountsInZCoverageAndApartInTheSeenShare) {
   EXPECT_NEAR(e.objects[1].z_coverage_seen, 0.8, 1e-9) << "not given: the whole height";
   EXPECT_NEAR(e.z_coverage_min, 0.8, 1e-9);
   EXPECT_NEAR(e.z_coverage_seen_min, 0.8, 1e-9);
+}
+
+TEST(Evaluate, ExcessIsJudgedAgainstWhatTheNearestViewAllows) {
+  // Eq. (1) with the paper camera (0.25 px, 0.3 m, 669 px): Δd = d² / 803. A post
+  // seen from 10 m at its nearest is allowed the 1.5 m floor; a tree seen from 45 m
+  // at best 2.52 m. Both boxes reach 2 m past their object.
+  const double factor = 0.25 / (0.3 * 669.0);
+  TruthObject post = box_object("post", {0, 0, 0}, {1, 1, 5});
+  post.nearest_seen_m = 10.0;
+  TruthObject tree = box_object("tree", {20, 0, 0}, {24, 4, 10});
+  tree.nearest_seen_m = 45.0;
+  const TruthObject hut = box_object("hut", {40, 0, 0}, {44, 4, 3});  // no nearest given
+  const std::vector<RunBox> boxes = {obstacle(1, {-2, 0, 0}, {1, 1, 5}),
+                                     obstacle(2, {18, 0, 0}, {24, 4, 10}),
+                                     obstacle(3, {40, 0, 0}, {44, 4, 3})};
+  const Evaluation e = evaluate({post, tree, hut}, boxes, 0.5, factor);
+  EXPECT_NEAR(e.objects[0].excess_m, 2.0, 1e-9);
+  EXPECT_NEAR(e.objects[0].excess_allowed_m, kExcessFloorM, 1e-9);
+  EXPECT_NEAR(e.objects[1].excess_allowed_m, 45.0 * 45.0 * factor, 1e-9);
+  EXPECT_TRUE(std::isnan(e.objects[2].excess_allowed_m));
+  EXPECT_EQ(e.excess_judged, 2);
+  EXPECT_EQ(e.excess_within, 1) << "the tree's box is within, the post's is not";
+  EXPECT_NE(to_table(e).find("within what the views allow"), std::string::npos);
+  EXPECT_EQ(evaluate({post, tree, hut}, boxes, 0.5).excess_judged, 0) << "no camera: not judged";
+}
+
+TEST(Evaluate, ObjectsYamlGivesTheNearestDepthSeen) {
+  testing::TempDir dir;
+  const std::string path = dir / "objects.yaml";
+  std::ofstream(path) << "objects:\n  - {name: post, type: cylinder, center: [1, 2], radius: 0.25, "
+                         "z: [0, 5], pixel_hits: 4000, seen_top_z: 5.0, nearest_seen_m: 12.5}\n";
+  std::vector<TruthObject> objects;
+  std::string error;
+  ASSERT_TRUE(load_objects_yaml(path, &objects, &error)) << error;
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_DOUBLE_EQ(objects[0].nearest_seen_m, 12.5);
 }
 
 }  // namespace

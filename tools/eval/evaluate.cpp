@@ -55,6 +55,7 @@ bool load_objects_yaml(const std::string& path, std::vector<TruthObject>* object
       }
       if (o["pixel_hits"]) t.pixel_hits = o["pixel_hits"].as<std::int64_t>();
       if (o["seen_top_z"]) t.seen_top_z = o["seen_top_z"].as<double>();
+      if (o["nearest_seen_m"]) t.nearest_seen_m = o["nearest_seen_m"].as<double>();
       t.moving = o["moving"].as<bool>(false);
       objects->push_back(t);
     }
@@ -165,7 +166,7 @@ double height_share(double lo, double hi, double box_lo, double box_hi) {
 }  // namespace
 
 Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<RunBox>& boxes,
-                    double tolerance_m) {
+                    double tolerance_m, double range_resolution_factor) {
   Evaluation e;
   std::vector<double> excess, coverage, coverage_seen;
   int separated = 0, separated_wide = 0;
@@ -208,6 +209,10 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
       const double seen_top =
           std::isnan(o.seen_top_z) ? o.max.z() : std::clamp(o.seen_top_z, o.min.z(), o.max.z());
       r.z_coverage_seen = height_share(o.min.z(), seen_top, union_min.z(), union_max.z());
+      if (range_resolution_factor > 0.0 && std::isfinite(o.nearest_seen_m)) {
+        r.excess_allowed_m =
+            std::max(kExcessFloorM, range_resolution_factor * o.nearest_seen_m * o.nearest_seen_m);
+      }
     }
     if (r.moving) {
       ++e.moving_objects;
@@ -218,6 +223,10 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
         separated += r.separated ? 1 : 0;
         separated_wide += r.separated_wide ? 1 : 0;
         excess.push_back(r.excess_m);
+        if (!std::isnan(r.excess_allowed_m)) {
+          ++e.excess_judged;
+          e.excess_within += r.excess_m <= r.excess_allowed_m + 1e-9 ? 1 : 0;
+        }
         coverage.push_back(r.z_coverage);
         coverage_seen.push_back(r.z_coverage_seen);
       }
@@ -254,6 +263,15 @@ Evaluation evaluate(const std::vector<TruthObject>& objects, const std::vector<R
   return e;
 }
 
+namespace {
+std::string allowed_json(double allowed) {
+  if (std::isnan(allowed)) return "null";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f", allowed);
+  return text;
+}
+}  // namespace
+
 std::string to_json(const Evaluation& e) {
   std::ostringstream out;
   char buf[512];
@@ -266,6 +284,8 @@ std::string to_json(const Evaluation& e) {
       << ",\n  \"separated_wide_gaps\": " << e.separated_wide
       << ",\n  \"excess_m\": {\"median\": " << e.excess_median_m << ", \"max\": " << e.excess_max_m
       << "}"
+      << ",\n  \"excess_within_allowed\": {\"judged\": " << e.excess_judged
+      << ", \"within\": " << e.excess_within << "}"
       << ",\n  \"purity\": " << e.purity
       << ",\n  \"z_coverage\": {\"median\": " << e.z_coverage_median
       << ", \"min\": " << e.z_coverage_min << "}"
@@ -280,12 +300,12 @@ std::string to_json(const Evaluation& e) {
                   "\"seen\": %s, \"moving\": %s, \"detected\": %s, "
                   "\"box_id\": %u, "
                   "\"centre_error_xy_m\": %.3f, \"box_centre\": [%.3f, %.3f], \"boxes\": %d, "
-                  "\"separated\": %s, \"excess_m\": %.2f, \"z_coverage\": %.3f, "
-                  "\"z_coverage_seen\": %.3f}",
+                  "\"separated\": %s, \"excess_m\": %.2f, \"excess_allowed_m\": %s, "
+                  "\"z_coverage\": %.3f, \"z_coverage_seen\": %.3f}",
                   r.seen ? "true" : "false", r.moving ? "true" : "false",
                   r.detected ? "true" : "false", r.box_id, r.centre_error_xy_m, r.box_centre.x(),
                   r.box_centre.y(), r.boxes, r.separated ? "true" : "false", r.excess_m,
-                  r.z_coverage, r.z_coverage_seen);
+                  allowed_json(r.excess_allowed_m).c_str(), r.z_coverage, r.z_coverage_seen);
     out << buf;
   }
   out << "\n  ]\n}\n";
@@ -295,15 +315,21 @@ std::string to_json(const Evaluation& e) {
 std::string to_table(const Evaluation& e) {
   std::ostringstream out;
   char buf[512];
-  std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %7s %7s\n", "object", "seen",
-                "detected", "box", "xy error m", "separate", "excess m", "z cover", "of seen");
+  std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6s %11s %9s %9s %9s %7s %7s\n", "object",
+                "seen", "detected", "box", "xy error m", "separate", "excess m", "allowed m",
+                "z cover", "of seen");
   out << buf;
   for (const ObjectResult& r : e.objects) {
-    std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %6.0f%% %6.0f%%\n",
+    char allowed[16] = "-";
+    if (!std::isnan(r.excess_allowed_m)) {
+      std::snprintf(allowed, sizeof(allowed), "%.2f%s", r.excess_allowed_m,
+                    r.excess_m > r.excess_allowed_m + 1e-9 ? "!" : "");
+    }
+    std::snprintf(buf, sizeof(buf), "%-22s %-5s %-9s %6u %11.2f %9s %9.2f %9s %6.0f%% %6.0f%%\n",
                   r.name.c_str(), r.moving ? "moved" : (r.seen ? "yes" : "no"),
                   r.detected ? "yes" : "NO", r.box_id, r.centre_error_xy_m,
-                  r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m, 100.0 * r.z_coverage,
-                  100.0 * r.z_coverage_seen);
+                  r.detected ? (r.separated ? "yes" : "NO") : "-", r.excess_m, allowed,
+                  100.0 * r.z_coverage, 100.0 * r.z_coverage_seen);
     out << buf;
   }
   std::snprintf(buf, sizeof(buf),
@@ -317,6 +343,13 @@ std::string to_table(const Evaluation& e) {
                 100.0 * e.z_coverage_seen_median, 100.0 * e.z_coverage_seen_min, e.obstacle_boxes,
                 e.boxes_touching_no_object);
   out << buf;
+  if (e.excess_judged > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "excess within what the views allow (max(%.1f m, eq. 1's range resolution at "
+                  "the nearest depth seen)): %d of %d\n",
+                  kExcessFloorM, e.excess_within, e.excess_judged);
+    out << buf;
+  }
   if (e.moving_objects > 0) {
     std::snprintf(buf, sizeof(buf),
                   "%d moving object(s): counted where they are at the end; boxes left where they "

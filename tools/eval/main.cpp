@@ -8,7 +8,24 @@
 #include <sstream>
 #include <string>
 
+#include <yaml-cpp/yaml.h>
+
 #include "tools/eval/evaluate.hpp"
+
+namespace {
+// σ / (b f) of SEQUENCE/camera.yaml (eq. 1: Δd = d² times it); 0 when it cannot say.
+double range_resolution_factor(const std::string& sequence) {
+  try {
+    const YAML::Node camera = YAML::LoadFile(sequence + "/camera.yaml");
+    const double sigma = camera["match_sigma_px"].as<double>(0.0);
+    const double baseline = camera["baseline_m"].as<double>(0.0);
+    const double fx = camera["fx"].as<double>(0.0);
+    return sigma > 0.0 && baseline > 0.0 && fx > 0.0 ? sigma / (baseline * fx) : 0.0;
+  } catch (const std::exception&) {
+    return 0.0;
+  }
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 3) {
@@ -44,7 +61,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "zonemap-eval: %s\n", error.c_str());
     return 1;
   }
-  const auto evaluation = zonemap::tools::evaluate(objects, boxes, tolerance);
+  const auto evaluation =
+      zonemap::tools::evaluate(objects, boxes, tolerance, range_resolution_factor(sequence));
   std::ofstream(run + "/eval.json") << zonemap::tools::to_json(evaluation);
   std::printf("%s(tolerance %.2f m) -> %s/eval.json\n",
               zonemap::tools::to_table(evaluation).c_str(), tolerance, run.c_str());

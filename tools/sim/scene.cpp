@@ -151,7 +151,7 @@ double cast_pixel(const Scene& scene, const CameraModel& camera, const Eigen::Is
 }
 
 ObjectSightings::ObjectSightings(std::size_t objects)
-    : pixel_hits(objects, 0), top_z(objects, -INFINITY) {}
+    : pixel_hits(objects, 0), top_z(objects, -INFINITY), nearest_m(objects, INFINITY) {}
 
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
             const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
@@ -204,6 +204,7 @@ void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry
           const auto k = static_cast<std::size_t>(object);
           ++sightings->pixel_hits[k];
           sightings->top_z[k] = std::max(sightings->top_z[k], hit.z());
+          sightings->nearest_m[k] = std::min(sightings->nearest_m[k], d);
         }
       }
     }
@@ -224,8 +225,9 @@ namespace {
 // ", seen_top_z: Z" where the object was seen at all.
 std::string seen_top(const ObjectSightings& sightings, std::size_t k) {
   if (!std::isfinite(sightings.top_z[k])) return "";
-  char text[48];
-  std::snprintf(text, sizeof(text), ", seen_top_z: %.3f", sightings.top_z[k]);
+  char text[80];
+  std::snprintf(text, sizeof(text), ", seen_top_z: %.3f, nearest_seen_m: %.2f", sightings.top_z[k],
+                sightings.nearest_m[k]);
   return text;
 }
 }  // namespace

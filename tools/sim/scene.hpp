@@ -100,6 +100,7 @@ inline constexpr double kSeenHorizontalM = 40.0;
 struct ObjectSightings {
   std::vector<std::int64_t> pixel_hits;
   std::vector<double> top_z;
+  std::vector<double> nearest_m;  // the least depth (along the optical axis) of a hit on it
   explicit ObjectSightings(std::size_t objects);
 };
 

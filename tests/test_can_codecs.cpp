@@ -433,6 +433,42 @@ TEST(ObstacleCan, ABoxNotSeenForOverASecondCarriesItsAgeWithinTheSameBudget) {
   EXPECT_EQ(strict.broken_updates(), 1);
 }
 
+TEST(ObstacleCan, APriorBoxSaysSoFromTheFirstUpdateOn) {
+  // Two boxes seen 0.2 s ago: one from a prior map no view has confirmed, one the
+  // flight measured. Only the prior one gets a BOX_AGE frame, with PRIOR set.
+  std::vector<ObstacleBox> boxes(2);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    boxes[i].id = static_cast<std::uint32_t>(7 + i);
+    boxes[i].min = Eigen::Vector3d(5.0 + 10.0 * static_cast<double>(i), 0.0, 0.0);
+    boxes[i].max = boxes[i].min + Eigen::Vector3d(1, 1, 3);
+    boxes[i].last_seen_s = 99.8;
+  }
+  boxes[0].prior = true;
+  ObstacleCanConfig config;
+  config.rate_hz = 10.0;
+  ObstacleCanEncoder encoder(config);
+  std::vector<std::uint32_t> order(boxes.size());
+  std::vector<CanFrame> frames(encoder.frames_per_update());
+  const std::size_t n = encoder.encode(boxes.data(), boxes.size(), Eigen::Vector3d::Zero(), true,
+                                       100.0, order.data(), frames.data());
+  ASSERT_EQ(n, 2u + 4u + 1u);
+  EXPECT_EQ(encoder.counters().ages_sent, 1);
+  ObstacleCanDecoder decoder;
+  bool complete = false;
+  for (std::size_t i = 0; i < n; ++i) complete = decoder.feed(frames[i]);
+  ASSERT_TRUE(complete);
+  ASSERT_EQ(decoder.boxes().size(), 2u);
+  for (const DecodedObstacleBox& d : decoder.boxes()) {
+    EXPECT_EQ(d.prior, d.id == 7) << d.id;
+    // The prior box's frame carries its true age (0.1 s steps); the other sends none.
+    EXPECT_NEAR(d.age_s, d.id == 7 ? 0.2 : 0.0, 0.1 + 1e-9) << d.id << ": seen 0.2 s ago";
+  }
+  // The bit where the layout says (config/can/zonemap-obstacles.dbc: PRIOR 32|1).
+  const CanFrame& age = frames[3];
+  ASSERT_EQ(age.id, 0x324u);
+  EXPECT_EQ(age.data[4] & 1u, 1u);
+}
+
 TEST(ObstacleCan, EncodeThenDecodeHoldsEveryBoxNearestFirstWithinBudget) {
   std::vector<ObstacleBox> boxes;
   for (int i = 0; i < 40; ++i) {

@@ -26,7 +26,8 @@ constexpr SignalSpec kEnd[] = {{"GENERATION", 0, 16, true, false, 1.0, 0.0, ""},
                                {"FLAGS", 48, 8, true, false, 1.0, 0.0, ""}};
 constexpr SignalSpec kBoxAge[] = {{"BOX_ID", 0, 15, true, false, 1.0, 0.0, ""},
                                   {"GROUND", 15, 1, true, false, 1.0, 0.0, ""},
-                                  {"AGE", 16, 16, true, false, 0.1, 0.0, "s"}};
+                                  {"AGE", 16, 16, true, false, 0.1, 0.0, "s"},
+                                  {"PRIOR", 32, 1, true, false, 1.0, 0.0, ""}};
 constexpr MessageSpec kMessages[] = {{"ZM_OBST_BEGIN", 0x320, false, 8, kBegin},
                                      {"ZM_OBST_BOX_MIN", 0x321, false, 8, kBoxMin},
                                      {"ZM_OBST_BOX_MAX", 0x322, false, 8, kBoxMax},
@@ -89,7 +90,8 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
   for (std::size_t k = 0; k < sending; ++k) {
     const ObstacleBox& box = boxes[order[k]];
     const double age_s = time_s - box.last_seen_s;
-    const bool report_age = age_s > kObstacleAgeReportedS;
+    // A prior box says so from the first update on, whatever its age.
+    const bool report_age = age_s > kObstacleAgeReportedS || box.prior;
     if (n + 2 + (report_age ? 1 : 0) + 1 > frames_per_update_) {  // the AGE frames used it up
       counters_.boxes_over_budget += static_cast<std::int64_t>(sending - k);
       flags |= kObstacleUpdateTruncated;
@@ -121,7 +123,8 @@ std::size_t ObstacleCanEncoder::encode(const ObstacleBox* boxes, std::size_t cou
       set_raw(&c, kBoxAge[0], id);
       set_raw(&c, kBoxAge[1], ground);
       set_raw(&c, kBoxAge[2],
-              static_cast<std::int64_t>(std::min(std::floor(age_s * 10.0), 65535.0)));
+              static_cast<std::int64_t>(std::clamp(std::floor(age_s * 10.0), 0.0, 65535.0)));
+      set_raw(&c, kBoxAge[3], box.prior ? 1 : 0);
       ++counters_.ages_sent;
     }
     ++sent;
@@ -153,6 +156,7 @@ bool ObstacleCanDecoder::feed(const CanFrame& f) {
       return false;
     }
     boxes_[count_ - 1].age_s = get_physical(f, kBoxAge[2]);
+    boxes_[count_ - 1].prior = get_raw(f, kBoxAge[3]) != 0;
     return false;
   }
   if (kind == 0) {

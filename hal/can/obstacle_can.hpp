@@ -1,7 +1,8 @@
 // Obstacle boxes to the flight controller over CAN (layout: config/can/zonemap-obstacles.dbc).
 // One map update is BEGIN, then BOX_MIN + BOX_MAX per box (+ BOX_AGE for a box
-// not seen for over a second: the frames stay two per box while the vehicle
-// looks at what it flies towards), then END; BEGIN and
+// not seen for over a second, or from a prior map and not yet confirmed by a
+// view (PRIOR = 1): the frames stay two per box while the vehicle looks at what
+// it flies towards), then END; BEGIN and
 // END carry the same generation counter, so the receiver knows when it holds a
 // complete update and which boxes belong together. Corners are decimetres
 // relative to an anchor point (multiples of 100 m, in BEGIN) in the map's world
@@ -78,6 +79,7 @@ struct DecodedObstacleBox {
   bool ground = false;
   Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
   double age_s = 0.0;  // from BOX_AGE; 0: seen within kObstacleAgeReportedS
+  bool prior = false;  // from BOX_AGE: a prior map's box no view has confirmed
 };
 
 class ObstacleCanDecoder {

@@ -56,7 +56,8 @@ int main(int argc, char** argv) {
     } else if (profile == "obstacles") {
       write_dbc(std::cout,
                 "zonemap obstacle boxes: BEGIN, BOX_MIN+BOX_MAX per box (nearest first; "
-                "BOX_AGE after them when the box was last seen over 1 s ago), END with the same "
+                "BOX_AGE after them when the box was last seen over 1 s ago, or comes from a prior "
+                "map no view has confirmed: PRIOR = 1), END with the same "
                 "GENERATION. Corners in the map's world frame relative to ANCHOR (dm); END FLAGS "
                 "bit 0 cut short, bit 1 some out of range, bit 2 world z down (NED; clear: z up). "
                 "No camera mount enters the boxes.",

@@ -135,12 +135,18 @@ int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
     return k.i >= low.i && k.i <= high.i && k.j >= low.j && k.j <= high.j && k.k >= low.k &&
            k.k <= high.k;
   };
-  // Discard first so that their buffers can serve the new zones.
+  // Zones the environment left keep their grid until their buffer is wanted, or
+  // for at most a call each after the first (oldest first): several left behind
+  // in one frame (four, crossing a zone face with the environment across two
+  // rows and layers) cost their extraction one a frame, not all at once; one the
+  // environment comes back to is still whole.
+  ++moves_;
   for (auto& slot : slots_) {
-    if (slot.live && !wanted(slot.key)) {
-      for (int o = 0; o < observer_count_; ++o) observers_[o]->on_zone_discarding(view_of(slot));
-      slot.live = false;
-      ++zones_discarded_;
+    if (!slot.live) continue;
+    if (wanted(slot.key)) {
+      slot.left_at = 0;
+    } else if (slot.left_at == 0) {
+      slot.left_at = moves_;
     }
   }
   int allocated = 0;
@@ -150,7 +156,7 @@ int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
         const ZoneKey key{i, j, k};
         if (find(key) != nullptr) continue;
         // The environment is one zone in size, so at most 2x2x2 zones are wanted
-        // and a free slot always exists here.
+        // and a slot is always free or held by a zone left behind.
         Slot* free_slot = nullptr;
         for (auto& slot : slots_) {
           if (!slot.live) {
@@ -158,9 +164,11 @@ int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
             break;
           }
         }
+        if (free_slot == nullptr) free_slot = discard_oldest_left();
         if (free_slot == nullptr) continue;
         free_slot->key = key;
         free_slot->live = true;
+        free_slot->left_at = 0;
         clear_cells(free_slot->cells, split);
         ++zones_allocated_;
         ++allocated;
@@ -169,7 +177,28 @@ int ZoneMap::move_environment(const CellIndex& origin, WorkSplit* split) {
       }
     }
   }
+  discard_oldest_left();
   return allocated;
+}
+
+ZoneMap::Slot* ZoneMap::discard_oldest_left() {
+  Slot* oldest = nullptr;
+  for (auto& slot : slots_) {
+    if (slot.live && slot.left_at != 0 && (oldest == nullptr || slot.left_at < oldest->left_at))
+      oldest = &slot;
+  }
+  if (oldest == nullptr) return nullptr;
+  for (int o = 0; o < observer_count_; ++o) observers_[o]->on_zone_discarding(view_of(*oldest));
+  oldest->live = false;
+  oldest->left_at = 0;
+  ++zones_discarded_;
+  return oldest;
+}
+
+int ZoneMap::left_behind_count() const {
+  int n = 0;
+  for (const auto& slot : slots_) n += slot.live && slot.left_at != 0 ? 1 : 0;
+  return n;
 }
 
 void ZoneMap::fuse(const LocalGrid& local, WorkSplit* split) {

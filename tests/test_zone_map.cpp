@@ -98,6 +98,47 @@ TEST(ZoneMap, DiagonalMoveHoldsEightZonesAtMost) {
   EXPECT_EQ(max_live, 8) << "off-boundary positions overlap 2x2x2 zones";
 }
 
+TEST(ZoneMap, ZonesLeftBehindTogetherGoOneAMoveAndOneComingBackIsWhole) {
+  // The environment across 2x2x2 zones moves half a zone along x: the four zones
+  // of column i = 0 are left behind at once. Their extraction (the observers)
+  // is spread, one a move, oldest first; those not yet discarded when the
+  // environment comes back still hold what was fused into them.
+  ZoneMap zones(small_centred_config());
+  RecordingObserver observer;
+  zones.add_observer(&observer);
+  zones.move_environment(zones.environment_origin({10, 10, 4}));
+  ASSERT_EQ(zones.live_zone_count(), 8);
+  std::vector<ZoneKey> column;
+  zones.for_each_live_zone([&](ZoneView& z) {
+    if (z.key.i == 0) {
+      z.cells[z.index(1, 1, 1)] = 7 * kCellScale;  // something fused there
+      column.push_back(z.key);
+    }
+  });
+  ASSERT_EQ(column.size(), 4u);
+  zones.move_environment(zones.environment_origin({15, 10, 4}));
+  EXPECT_EQ(observer.discarded.size(), 1u) << "one of the four at once";
+  EXPECT_EQ(zones.left_behind_count(), 3);
+  zones.move_environment(zones.environment_origin({15, 10, 4}));
+  EXPECT_EQ(observer.discarded.size(), 2u);
+  EXPECT_EQ(zones.left_behind_count(), 2);
+  // Back: the two still held are the environment's again, as they were.
+  zones.move_environment(zones.environment_origin({10, 10, 4}));
+  EXPECT_EQ(zones.left_behind_count(), 0);
+  EXPECT_EQ(observer.allocated.size(), 8u + 2u) << "only the two discarded come back empty";
+  int kept = 0, cleared = 0;
+  for (const ZoneKey& key : column) {
+    ZoneView view;
+    ASSERT_TRUE(zones.live_view(key, &view));
+    const FusedCell v = view.cells[view.index(1, 1, 1)];
+    kept += v == 7 * kCellScale ? 1 : 0;
+    cleared += v == 0 ? 1 : 0;
+  }
+  EXPECT_EQ(kept, 2);
+  EXPECT_EQ(cleared, 2);
+  EXPECT_EQ(zones.zones_discarded(), 2);
+}
+
 TEST(ZoneMap, ReturningZoneStartsUnknown) {
   ZoneMap zones(small_centred_config());
   LocalGrid local(small_centred_config().zone_cells);

@@ -68,10 +68,15 @@ class ZoneMap {
   CellIndex environment_origin(const CellIndex& camera_cell, bool world_z_up = true) const;
 
   // Makes the zones overlapping the environment with minimum corner `origin` hold
-  // a grid: new ones are taken from the pool and cleared, zones left behind are
-  // discarded. Returns how many zones were newly allocated. With a split, its
-  // parts clear the new zones' cells (each a piece of its own).
+  // a grid: new ones are taken from the pool and cleared. Zones left behind are
+  // discarded one a call, oldest first, or sooner when a new zone needs their
+  // buffer; until then they keep their grid (live, outside the environment: no
+  // frame is fused into them, and one the environment comes back to is whole).
+  // Returns how many zones were newly allocated. With a split, its parts clear
+  // the new zones' cells (each a piece of its own).
   int move_environment(const CellIndex& origin, WorkSplit* split = nullptr);
+  // Live zones outside the environment, waiting to be discarded.
+  int left_behind_count() const;
 
   // Eq. (7): m_t = m_{t-1} + m̂_t for every cell of the local grid, saturating at
   // ±limit. The local grid's origin must be the current environment origin.
@@ -115,7 +120,9 @@ class ZoneMap {
     ZoneKey key;
     bool live = false;
     FusedCell* cells = nullptr;
+    std::int64_t left_at = 0;  // the move_environment call it was left behind in; 0: wanted
   };
+  Slot* discard_oldest_left();  // its observers told; null when no zone was left behind
   ZoneView view_of(const Slot& slot) const;
   Slot* find(const ZoneKey& key);
   const Slot* find(const ZoneKey& key) const;
@@ -136,6 +143,7 @@ class ZoneMap {
   int observer_count_ = 0;
   std::int64_t zones_allocated_ = 0;
   std::int64_t zones_discarded_ = 0;
+  std::int64_t moves_ = 0;  // move_environment calls
 };
 
 }  // namespace zonemap

@@ -12,6 +12,8 @@ namespace {
 constexpr std::int16_t kNoHeight = -1;
 // A measured band's run tops scatter about its quantile by about a cell.
 constexpr int kBandScatterCells = 1;
+// PeakTrim compares a cell with the planes one cell above and below it.
+constexpr int kTrimReachZ = 2;
 
 std::int64_t overlap_volume(const CellIndex& a0, const CellIndex& a1, const CellIndex& b0,
                             const CellIndex& b1) {
@@ -913,11 +915,14 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
     for (std::size_t j = i + 1; j < capacity_; ++j) {
       const Feature& b = features_[j];
       if (!b.in_use || b.kind != a.kind) continue;
-      if (b.zone == a.zone && !(a.kind == FeatureKind::kObstacle && mostly_overlap_xy(a, b))) {
-        continue;
-      }
+      const bool one_object = a.kind == FeatureKind::kObstacle && mostly_overlap_xy(a, b);
+      if (b.zone == a.zone && !one_object) continue;
+      // Parts of one object one above the other (the halo trim can take a weaker
+      // middle for the halo of a stronger end: a post in two boxes) join across
+      // the trim's reach in z as well.
+      const int gap_z = b.zone == a.zone ? gap + kTrimReachZ : gap;
       if (a.min.x > b.max.x + gap || b.min.x > a.max.x + gap || a.min.y > b.max.y + gap ||
-          b.min.y > a.max.y + gap || a.min.z > b.max.z + gap || b.min.z > a.max.z + gap) {
+          b.min.y > a.max.y + gap || a.min.z > b.max.z + gap_z || b.min.z > a.max.z + gap_z) {
         continue;
       }
       const std::uint32_t ra = find_root(parent_.get(), static_cast<std::uint32_t>(i));

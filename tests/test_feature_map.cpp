@@ -573,6 +573,33 @@ TEST(FeatureMerge, ObjectCutByAZoneFaceIsOneBox) {
   EXPECT_DOUBLE_EQ(joined.max.z(), 3.0);
 }
 
+TEST(FeatureMerge, APostInTwoPartsOneAboveTheOtherIsOneBox) {
+  // A post whose middle the halo trim took for the halo of its stronger ends
+  // comes out of extraction as two parts in one zone, one above the other: two
+  // cells apart, one box; a thing four cells above another is its own.
+  const std::array<int, 3> dims = {20, 20, 16};
+  FeatureMap map(feature_config(dims, false), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int z = 1; z <= 4; ++z) zone.set(5, 5, z);    // the post's foot
+  for (int z = 7; z <= 10; ++z) zone.set(5, 5, z);   // its top, z 5 and 6 trimmed
+  for (int z = 1; z <= 3; ++z) zone.set(14, 5, z);   // a pole
+  for (int z = 8; z <= 10; ++z) zone.set(14, 5, z);  // a lamp four cells above it
+  map.extract(zone.view);
+  ASSERT_EQ(map.count(), 4u);
+  std::vector<ObstacleBox> boxes(8);
+  const std::size_t n = map.merged(boxes.data(), boxes.size(), false);
+  ASSERT_EQ(n, 3u);
+  int posts = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (boxes[i].min.x() != 5.0) continue;
+    ++posts;
+    EXPECT_EQ(boxes[i].parts, 2);
+    EXPECT_DOUBLE_EQ(boxes[i].min.z(), 1.0);
+    EXPECT_DOUBLE_EQ(boxes[i].max.z(), 11.0);
+  }
+  EXPECT_EQ(posts, 1);
+}
+
 // --- store policy ---------------------------------------------------------------
 
 TEST(FeatureStore, FullStoreKeepsTheMostRelevantAndSaysSo) {

@@ -700,11 +700,17 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
     lo = {std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z)};
     hi = {std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z)};
     if (ground) continue;
-    const int below = z_up_ ? z - 1 : z + 1;
-    if (below >= 0 && below < nz && zone.occupied(zone.index(x, y, below)) &&
-        is_ground_cell(x, y, below)) {
-      standing_height = std::min(standing_height,
-                                 static_cast<int>(terrain_[static_cast<std::size_t>(y) * nx + x]));
+    // The cell under it, or within the trim's reach under it: the trim takes a
+    // thin thing's foot beside a saturated ground for the ground's halo.
+    for (int step = 1; step <= 1 + kTrimReachZ; ++step) {
+      const int below = z_up_ ? z - step : z + step;
+      if (below < 0 || below >= nz) break;
+      if (!zone.occupied(zone.index(x, y, below))) continue;
+      if (is_ground_cell(x, y, below)) {
+        standing_height = std::min(
+            standing_height, static_cast<int>(terrain_[static_cast<std::size_t>(y) * nx + x]));
+      }
+      break;
     }
   }
   if (standing_height != INT32_MAX && ground_band_cells_ > 0 && !ground &&

@@ -182,6 +182,33 @@ TEST(FeatureExtraction, PostOnAPlaneIsOneObstacleAndGround) {
   EXPECT_EQ(ground[0]->max, (CellIndex{29, 29, 3}));
 }
 
+TEST(FeatureExtraction, APostWhoseFootTheTrimTookStillStandsOnTheGround) {
+  // The trim takes a thin thing's lowest cells beside a saturated ground for the
+  // ground's halo: a post whose cells start two cells above the field still
+  // stands on it (its box reaches the terrain cell); a sign four cells above the
+  // field hangs in the air.
+  const std::array<int, 3> dims = {30, 30, 14};
+  FeatureMap map(feature_config(dims, true), true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 30; ++x) {
+      zone.set(x, y, 2);  // the field
+      for (int z = 3; z < 14; ++z) zone.set(x, y, z, -kCellScale);
+    }
+  for (int z = 5; z <= 10; ++z) zone.set(8, 8, z);   // the post, z 3 and 4 trimmed
+  for (int z = 7; z <= 9; ++z) zone.set(20, 20, z);  // the sign
+  map.extract(zone.view);
+  const auto obstacles = features_of(map, FeatureKind::kObstacle);
+  ASSERT_EQ(obstacles.size(), 2u);
+  for (const Feature* f : obstacles) {
+    if (f->min.x == 8) {
+      EXPECT_EQ(f->min.z, 2) << "down into the terrain cell";
+    } else {
+      EXPECT_EQ(f->min.z, 7) << "the sign stays where it is";
+    }
+  }
+}
+
 // A field whose ground band stereo smeared 4 cells thick (z 2..5), under free
 // air, with a post standing on it.
 TestZone thick_band_field(const std::array<int, 3>& dims) {

@@ -12,7 +12,8 @@ namespace {
 constexpr std::int16_t kNoHeight = -1;
 // A measured band's run tops scatter about its quantile by about a cell.
 constexpr int kBandScatterCells = 1;
-// PeakTrim compares a cell with the planes one cell above and below it.
+// PeakTrim compares a cell with the planes one above and below it: beside a
+// stronger part it takes a cell of a thin thing; two leave a cell of margin.
 constexpr int kTrimReachZ = 2;
 
 std::int64_t overlap_volume(const CellIndex& a0, const CellIndex& a1, const CellIndex& b0,
@@ -714,7 +715,7 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
     }
   }
   if (standing_height != INT32_MAX && ground_band_cells_ > 0 && !ground &&
-      within_ground_around(lo, hi, top_height(cells, count))) {
+      within_ground_around(lo, hi, std::max(height_of(lo.z), height_of(hi.z)))) {
     ++counters_.objects_in_ground_band;
     ground = true;
     standing_height = INT32_MAX;
@@ -736,12 +737,6 @@ void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells
          CellIndex{origin.x + lo.x, origin.y + lo.y, origin.z + lo.z},
          CellIndex{origin.x + hi.x, origin.y + hi.y, origin.z + hi.z},
          static_cast<std::int32_t>(count), priors_live_ > 0 && measured(zone, cells, count));
-}
-
-int FeatureMap::top_height(const std::uint32_t* cells, std::size_t count) const {
-  int top = INT32_MIN;
-  for (std::size_t k = 0; k < count; ++k) top = std::max(top, height_of(cell_z(cells[k])));
-  return top;
 }
 
 // Far grazing views smear the ground into a band whose runs vary from column

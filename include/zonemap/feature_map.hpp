@@ -194,7 +194,6 @@ class FeatureMap : public ZoneObserver {
   void upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& min, const CellIndex& max,
               std::int32_t cells, bool measured);
   bool measured(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count) const;
-  int top_height(const std::uint32_t* cells, std::size_t count) const;
   bool within_ground_around(const CellIndex& lo, const CellIndex& hi, int top) const;
   double relevance(const Feature& f) const;
   // Whether part of the box of world cells [min, max] is in the camera's view:

@@ -8,22 +8,18 @@
 #include <sstream>
 #include <string>
 
-#include <yaml-cpp/yaml.h>
-
+#include "hal/config/yaml_config.hpp"
 #include "tools/eval/evaluate.hpp"
+#include "zonemap/camera.hpp"
 
 namespace {
-// σ / (b f) of SEQUENCE/camera.yaml (eq. 1: Δd = d² times it); 0 when it cannot say.
+// Eq. (1)'s Δd at 1 m for SEQUENCE/camera.yaml (Δd = d² times it); 0 when the
+// camera cannot be read: the allowances are then not judged.
 double range_resolution_factor(const std::string& sequence) {
-  try {
-    const YAML::Node camera = YAML::LoadFile(sequence + "/camera.yaml");
-    const double sigma = camera["match_sigma_px"].as<double>(0.0);
-    const double baseline = camera["baseline_m"].as<double>(0.0);
-    const double fx = camera["fx"].as<double>(0.0);
-    return sigma > 0.0 && baseline > 0.0 && fx > 0.0 ? sigma / (baseline * fx) : 0.0;
-  } catch (const std::exception&) {
-    return 0.0;
-  }
+  zonemap::CameraModel camera;
+  std::string error;
+  if (!zonemap::hal::load_camera_yaml(sequence + "/camera.yaml", &camera, &error)) return 0.0;
+  return zonemap::range_resolution(camera, 1.0);
 }
 }  // namespace
 

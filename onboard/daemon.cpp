@@ -34,6 +34,7 @@ bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
   features_->set_camera(camera_);
   mapper_->zones().add_observer(features_.get());
   if (!add_prior_map(error) || !open_sinks(error)) return false;
+  open_shared_maps();
   frame_ms_.reserve(1 << 20);  // a day at 10 Hz; beyond it the figures stop growing
   return make_pipeline(error);
 }
@@ -49,6 +50,16 @@ bool VehicleDaemon::add_prior_map(std::string* error) {
   std::fprintf(stderr, "zonemap: prior map %s: %zu obstacles (%d stored whole)\n",
                config_.prior_path.c_str(), prior.boxes.size(), stored);
   return true;
+}
+
+// Other vehicles' maps (vehicle.yaml shared_maps): received on a thread of its
+// own, taken into the feature map by the extraction thread.
+void VehicleDaemon::open_shared_maps() {
+  if (!config_.shared_maps) return;
+  lcm_link::SharedMapsConfig shared = config_.shared;
+  shared.world_z_up = camera_.world_z_up;
+  shared_inbox_ = std::make_unique<SharedMapInbox>(shared.max_boxes);
+  shared_receiver_ = std::make_unique<lcm_link::LcmSharedMapReceiver>(shared, *shared_inbox_);
 }
 
 // Frames from a replay sequence (host, desk) or the V4L2 camera (FPGA depth).
@@ -188,6 +199,7 @@ bool VehicleDaemon::make_pipeline(std::string* error) {
   options.body_T_camera = camera_.body_T_camera;
   options.world_z_up = camera_.world_z_up;
   options.sectors = config_.mavlink.sectors;
+  options.shared_maps = shared_inbox_.get();
   std::vector<hal::ObstacleSink*> sinks;
   for (auto& s : sinks_) sinks.push_back(s.get());
   pipeline_ = std::make_unique<runtime::Pipeline>(
@@ -222,6 +234,12 @@ std::string VehicleDaemon::describe() const {
     out << "zonemap: recording to " << config_.record_path << " (its own thread; "
         << mib(recorder_->reserved_bytes()) << " MiB of slots, outside the mapping budget)\n";
   }
+  if (shared_receiver_) {
+    out << "zonemap: maps shared by other vehicles on";
+    for (const std::string& c : config_.shared.channels) out << " " << c;
+    out << " (" << config_.shared.url << "; its own thread; "
+        << mib(shared_inbox_->reserved_bytes()) << " MiB of slots)\n";
+  }
   if (map_saver_ != nullptr) {
     out << "zonemap: saving the map every " << config_.save_map_every_s << " s to "
         << config_.output_dir << "/boxes.csv (its own thread; " << mib(map_saver_->reserved_bytes())
@@ -238,7 +256,9 @@ void VehicleDaemon::after_frame(std::size_t /*frame_index*/, const Eigen::Isomet
 }
 
 void VehicleDaemon::run() {
+  if (shared_receiver_) shared_receiver_->start();
   pipeline_->run();
+  if (shared_receiver_) shared_receiver_->stop();
   stats_ = pipeline_->stats();
   if (live_poses_) pose_counters_ = live_poses_->counters();
   // Every live zone's objects into the feature map for the final boxes.
@@ -355,6 +375,20 @@ bool VehicleDaemon::write_outputs(std::string* error) {
     links.add("v4l2_time_future", v.time_future);
     links.add("v4l2_sequence_outliers", v.sequence_outliers);
     links.add("v4l2_clock_steps", v.clock_steps);
+  }
+  if (shared_receiver_) {
+    const lcm_link::SharedMapCounters& c = shared_receiver_->counters();
+    links.add("shared_maps_in", c.maps);
+    links.add("shared_maps_malformed", c.malformed);
+    links.add("shared_maps_refused_no_origin", c.refused_no_origin);
+    links.add("shared_maps_refused_own", c.refused_own);
+    links.add("shared_maps_refused_frame", c.refused_frame);
+    links.add("shared_maps_no_slot", c.no_slot);
+    links.add("shared_boxes_taken", c.boxes_taken);
+    links.add("shared_boxes_not_measured", c.boxes_not_measured);
+    links.add("shared_boxes_rejected", c.boxes_rejected);
+    links.add("shared_boxes_over_capacity", c.boxes_over_capacity);
+    links.add("shared_provider_start_failures", shared_receiver_->start_failures());
   }
   links.add("health_published", stats_.health_published);
   links.add("stopped_by_signal", stats_.stopped ? 1 : 0);

@@ -8,6 +8,7 @@
 
 #include "hal/frames/frame_source.hpp"
 #include "hal/ins/pose_source.hpp"
+#include "hal/lcm/lcm_shared_maps.hpp"
 #include "hal/output/map_saver.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/flight_recorder.hpp"
@@ -47,6 +48,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   bool open_pose_log(std::string* error);
   bool open_mavlink_poses(std::string* error);
   bool add_prior_map(std::string* error);
+  void open_shared_maps();
   bool open_sinks(std::string* error);
   bool make_pipeline(std::string* error);
   bool open_recorder(std::size_t footprint_rects, std::string* error);
@@ -64,6 +66,8 @@ class VehicleDaemon : private runtime::MappingHooks {
   std::vector<std::unique_ptr<hal::ObstacleSink>> sinks_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<FeatureMap> features_;
+  std::unique_ptr<SharedMapInbox> shared_inbox_;  // other vehicles' maps (shared_maps)
+  std::unique_ptr<lcm_link::LcmSharedMapReceiver> shared_receiver_;
   std::unique_ptr<runtime::Pipeline> pipeline_;
   runtime::PipelineStats stats_;
   hal::PoseSourceCounters pose_counters_;

@@ -1,5 +1,6 @@
 #include "onboard/vehicle_config.hpp"
 
+#include <cmath>
 #include <filesystem>
 
 #include "hal/config/yaml_support.hpp"
@@ -69,6 +70,39 @@ Reader can_origin(const std::string& path, can::InsCanConfig* profile) {
     }
     profile->has_origin = true;
     profile->origin = {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
+  };
+}
+
+Reader world_origin(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    if (!node.IsSequence() || node.size() != 3) {
+      throw ParseError{where(path, node) + ": world_origin must be [latitude, longitude, height]"};
+    }
+    const Geodetic o{node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
+    if (!(std::abs(o.latitude_deg) <= 90.0 && std::abs(o.longitude_deg) <= 180.0 &&
+          std::abs(o.height_m) <= 1.0e5)) {
+      throw ParseError{where(path, node) + ": world_origin is not a WGS84 position"};
+    }
+    c->has_world_origin = true;
+    c->world_origin = o;
+  };
+}
+
+Reader vehicle_name(VehicleConfig* c) {
+  return [c](const YAML::Node& node) {
+    c->vehicle = node.as<std::string>();
+    c->vehicle_named = true;
+  };
+}
+
+// shared_maps: another vehicle's obstacle_map_t channels (one sender each).
+Reader shared_maps_section(const std::string& path, VehicleConfig* c) {
+  return [path, c](const YAML::Node& node) {
+    c->shared_maps = true;
+    hal::read_section(path, node, "shared_maps",
+                      {{"url", into(&c->shared.url)},
+                       {"channels", into(&c->shared.channels)},
+                       {"max_boxes", into(&c->shared.max_boxes)}});
   };
 }
 
@@ -208,6 +242,24 @@ std::string missing_for_sources(const VehicleConfig& c) {
   if (c.save_map_every_s > 0.0 && c.output_dir.empty()) {
     return "outputs.save_map_every_s needs outputs.directory (the map goes to its boxes.csv)";
   }
+  if (c.shared_maps) {
+    if (!c.has_world_origin || !c.vehicle_named) {
+      return "shared_maps needs this vehicle's 'vehicle:' name and 'world_origin:' (the maps "
+             "meet through their origins)";
+    }
+    if (c.shared.channels.empty() || c.shared.channels.size() > 255) {
+      return "shared_maps.channels must name 1 to 255 channels";
+    }
+    if (c.shared.max_boxes == 0 || c.shared.max_boxes > 65536) {
+      return "shared_maps.max_boxes must be 1 to 65536";
+    }
+  }
+  if (c.can_profile.has_origin && c.has_world_origin &&
+      (c.can_profile.origin.latitude_deg != c.world_origin.latitude_deg ||
+       c.can_profile.origin.longitude_deg != c.world_origin.longitude_deg ||
+       c.can_profile.origin.height_m != c.world_origin.height_m)) {
+    return "poses.origin and world_origin differ: the INS frame is the world frame";
+  }
   if (c.poses == Poses::kMavlink) {
     const std::string why = mavlink::validate(c.mavlink_poses);
     if (!why.empty()) return why;
@@ -234,6 +286,9 @@ bool parse_vehicle_config(const YAML::Node& root, const std::string& path, Vehic
                        {"prior", into(&c.prior_path)},
                        {"camera", into(&c.camera_path)},
                        {"live", into(&c.live)},
+                       {"vehicle", vehicle_name(&c)},
+                       {"world_origin", world_origin(path, &c)},
+                       {"shared_maps", shared_maps_section(path, &c)},
                        {"frames", frames_section(path, &c)},
                        {"poses", poses_section(path, &c)},
                        {"outputs", outputs_section(path, &c)}});
@@ -245,6 +300,14 @@ bool parse_vehicle_config(const YAML::Node& root, const std::string& path, Vehic
     return false;
   }
   resolve_paths(path, &c);
+  // The INS frame's configured origin is the world frame's.
+  if (!c.has_world_origin && c.poses == Poses::kCan && c.can_profile.has_origin) {
+    c.has_world_origin = true;
+    c.world_origin = c.can_profile.origin;
+  }
+  c.lcm.vehicle = c.shared.vehicle = c.vehicle;
+  c.lcm.has_world_origin = c.has_world_origin;
+  c.lcm.world_origin = c.shared.world_origin = c.world_origin;
   *out = c;
   return true;
 }

@@ -7,6 +7,7 @@
 
 #include "hal/can/ins_can.hpp"
 #include "hal/can/obstacle_can.hpp"
+#include "hal/lcm/lcm_shared_maps.hpp"
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_pose_source.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
@@ -52,6 +53,16 @@ struct VehicleConfig {
   std::string record_path;      // a Foxglove recording (MCAP) of the flight (empty: none)
   int record_depth_every = 10;  // every n-th mapped depth frame into it (0: none)
   bool live = false;            // newest wins (drop frames when behind); replay default: lossless
+
+  // This vehicle among others: its name and its world frame's WGS84 origin, said
+  // in every obstacle_map_t it publishes; with them a daemon takes the maps other
+  // vehicles publish (shared_maps), each into its own frame.
+  std::string vehicle = "zonemap";
+  bool vehicle_named = false;
+  bool has_world_origin = false;
+  Geodetic world_origin;
+  bool shared_maps = false;
+  lcm_link::SharedMapsConfig shared;
 };
 
 bool load_vehicle_config(const std::string& path, VehicleConfig* config, std::string* error);

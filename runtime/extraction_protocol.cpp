@@ -133,8 +133,22 @@ void Pipeline::Impl::answer_allocation(const ExtractionJob& job) {
                extraction_bell);
 }
 
+// Other vehicles' maps that have come, each replacing its sender's last (at most
+// the inbox's slots a call: bounded however fast they come).
+void Pipeline::Impl::take_shared_maps() {
+  SharedMapInbox* inbox = options.shared_maps;
+  if (inbox == nullptr) return;
+  for (std::size_t i = 0; i < SharedMapInbox::kSlots; ++i) {
+    SharedMapUpdate* update = inbox->next();
+    if (update == nullptr) return;
+    features.replace_shared(update->source, update->min, update->max, update->count);
+    inbox->release(update);
+  }
+}
+
 // The merged boxes and footprints into the output buffer the mapping thread took.
 void Pipeline::Impl::merge_for_output(const ExtractionJob& job, const os::AllocationScope& scope) {
+  take_shared_maps();
   OutputBuffer& buffer = outputs[job.slot];
   FootprintOutput shapes;
   shapes.rects = buffer.rects.data();

@@ -60,6 +60,13 @@ void Pipeline::Impl::fill_feature_health(hal::HealthSnapshot* h) {
   h->add("features_evicted", fc.features_evicted);
   h->add("features_dropped", fc.features_dropped);
   h->add("feature_shapes_truncated", fc.shapes_truncated);
+  if (options.shared_maps != nullptr) {
+    h->add("shared_updates", fc.shared_updates);
+    h->add("shared_boxes_added", fc.shared_added);
+    h->add("shared_boxes_removed", fc.shared_removed);
+    h->add("shared_boxes_dropped", fc.shared_dropped);
+    h->add("shared_maps_no_slot", options.shared_maps->dropped());
+  }
 }
 
 void add_to_run_stats(const PipelineStats& p, hal::RunStats* s) {

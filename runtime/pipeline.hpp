@@ -25,6 +25,7 @@
 #include "zonemap/feature_map.hpp"
 #include "zonemap/latency_histogram.hpp"
 #include "zonemap/mapper.hpp"
+#include "zonemap/shared_map_inbox.hpp"
 
 namespace zonemap::runtime {
 
@@ -55,6 +56,9 @@ struct PipelineOptions {
   bool world_z_up = true;
   SectorConfig sectors;                 // the band and range in which sectors count as observed
   std::size_t footprint_rects = 16384;  // footprint rectangles per output buffer
+  // Maps other vehicles share (a receiver thread fills it): taken into the feature
+  // map on the extraction thread before each update is merged. Null: none.
+  SharedMapInbox* shared_maps = nullptr;
 };
 
 // The shared counters (hal::FrameCounters; heap_* the threads' sum) plus each

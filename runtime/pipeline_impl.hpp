@@ -172,6 +172,7 @@ struct Pipeline::Impl {
   void extraction();
   void answer_allocation(const ExtractionJob& job);
   void merge_for_output(const ExtractionJob& job, const os::AllocationScope& scope);
+  void take_shared_maps();
 
   // output_stage.cpp
   void output();

@@ -348,7 +348,8 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   compute_terrain(zone);
   std::fill_n(visited_.get(), (total + 63) / 64, std::uint64_t{0});
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-    if (f->in_use && f->zone == zone.key()) f->stale = true;
+    // Another vehicle's boxes are not in the grid: not this extraction's to match.
+    if (f->in_use && f->zone == zone.key() && f->shared_source == 0) f->stale = true;
   }
   for (std::size_t start = 0; start < total; ++start) {
     if ((start & 63) == 0 && zone.occupied_word(start >> 6) == 0) {  // 64 empty cells
@@ -379,7 +380,25 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   }
 }
 
-bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m) {
+template <typename Pick>
+Feature* FeatureMap::most_overlapping_stale(const ZoneKey& zone, const CellIndex& min,
+                                            const CellIndex& max, Pick&& pick) {
+  Feature* most = nullptr;
+  std::int64_t best = 0;
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (!f->in_use || !f->stale || !(f->zone == zone) || !pick(*f)) continue;
+    const std::int64_t v = overlap_volume(f->min, f->max, min, max);
+    if (v > best) {
+      best = v;
+      most = f;
+    }
+  }
+  return most;
+}
+
+template <typename Fn>
+void FeatureMap::for_each_zone_piece(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m,
+                                     Fn&& fn) const {
   const auto cell = [this](double m, bool upper) {
     const double c = m / cell_size_m_;
     // [min, max) in metres: the cells it covers, at least one.
@@ -390,8 +409,7 @@ bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& 
   hi = {std::max(hi.x, lo.x), std::max(hi.y, lo.y), std::max(hi.z, lo.z)};
   const ZoneKey first = ZoneMap::key_of(map_config_, lo);
   const ZoneKey last = ZoneMap::key_of(map_config_, hi);
-  bool all_stored = true;
-  // Bounded by the box's extent in zones (the loader refuses boxes over 1 km).
+  // Bounded by the box's extent in zones (the loaders refuse boxes over 1 km).
   for (std::int32_t k = first.k; k <= last.k; ++k)
     for (std::int32_t j = first.j; j <= last.j; ++j)
       for (std::int32_t i = first.i; i <= last.i; ++i) {
@@ -400,9 +418,79 @@ bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& 
         const CellIndex a{std::max(lo.x, o.x), std::max(lo.y, o.y), std::max(lo.z, o.z)};
         const CellIndex b{std::min(hi.x, o.x + dims_[0] - 1), std::min(hi.y, o.y + dims_[1] - 1),
                           std::min(hi.z, o.z + dims_[2] - 1)};
-        all_stored &= add_prior_piece(key, a, b);
+        fn(key, a, b);
       }
+}
+
+bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m) {
+  bool all_stored = true;
+  for_each_zone_piece(min_m, max_m,
+                      [&](const ZoneKey& key, const CellIndex& a, const CellIndex& b) {
+                        all_stored &= add_prior_piece(key, a, b);
+                      });
   return all_stored;
+}
+
+std::size_t FeatureMap::replace_shared(std::uint8_t source, const Eigen::Vector3d* min_m,
+                                       const Eigen::Vector3d* max_m, std::size_t count) {
+  ++counters_.shared_updates;
+  // What this sender sent before stays out of eviction while it is matched.
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (f->in_use && f->shared_source == source) f->stale = true;
+  }
+  for (std::size_t b = 0; b < count; ++b) {
+    for_each_zone_piece(min_m[b], max_m[b],
+                        [&](const ZoneKey& key, const CellIndex& lo, const CellIndex& hi) {
+                          add_or_keep_shared(source, key, lo, hi);
+                        });
+  }
+  std::size_t stored = 0;
+  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
+    if (!f->in_use || f->shared_source != source) continue;
+    if (f->stale) {
+      remove(f);
+      ++counters_.shared_removed;
+    } else {
+      ++stored;
+    }
+  }
+  return stored;
+}
+
+void FeatureMap::add_or_keep_shared(std::uint8_t source, const ZoneKey& zone, const CellIndex& min,
+                                    const CellIndex& max) {
+  Feature* same = most_overlapping_stale(zone, min, max, [source](const Feature& f) {
+    return f.shared_source == source;
+  });
+  Feature piece;
+  piece.min = min;
+  piece.max = max;
+  piece.cells = (max.x - min.x + 1) * (max.y - min.y + 1) * (max.z - min.z + 1);
+  if (same != nullptr) {
+    same->min = min;
+    same->max = max;
+    same->cells = piece.cells;
+    same->last_seen_s = time_s_;
+    same->stale = false;
+    ++counters_.shared_kept;
+    return;
+  }
+  Feature* slot = free_slot(relevance(piece));
+  if (slot == nullptr) {
+    ++counters_.shared_dropped;
+    return;
+  }
+  piece.id = next_id_++;
+  piece.zone = zone;
+  piece.shared_source = source;
+  piece.first_seen_s = time_s_;
+  piece.last_seen_s = time_s_;
+  piece.in_use = true;
+  piece.prior = true;  // no view of ours has confirmed it (never matched by upsert)
+  *slot = piece;
+  ++in_use_;
+  ++priors_live_;
+  ++counters_.shared_added;
 }
 
 bool FeatureMap::add_prior_piece(const ZoneKey& zone, const CellIndex& min, const CellIndex& max) {
@@ -816,16 +904,8 @@ void FeatureMap::upsert(const ZoneKey& zone, FeatureKind kind, const CellIndex& 
                         const CellIndex& max, std::int32_t cells, bool measured) {
   // The same object as before: the stale feature of this zone and kind that
   // overlaps the new box most.
-  Feature* match = nullptr;
-  std::int64_t best = 0;
-  for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-    if (!f->in_use || !f->stale || f->kind != kind || !(f->zone == zone)) continue;
-    const std::int64_t v = overlap_volume(f->min, f->max, min, max);
-    if (v > best) {
-      best = v;
-      match = f;
-    }
-  }
+  Feature* match =
+      most_overlapping_stale(zone, min, max, [kind](const Feature& f) { return f.kind == kind; });
   if (match == nullptr) {
     Feature candidate;
     candidate.kind = kind;

@@ -60,9 +60,11 @@ struct Flight : MappedSequence {
   }
 
   runtime::PipelineStats run(hal::FrameSource& frames, hal::PoseSource* ins,
-                             std::span<hal::ObstacleSink* const> sinks, bool lossless = true) {
+                             std::span<hal::ObstacleSink* const> sinks, bool lossless = true,
+                             SharedMapInbox* shared_maps = nullptr) {
     runtime::PipelineOptions options;
     options.lossless = lossless;
+    options.shared_maps = shared_maps;
     options.publish_every_frames = 1;
     options.pose_wait_s = 0.02;
     runtime::Pipeline pipeline(frames, ins == nullptr ? &sequence.poses() : nullptr, ins, sinks,

@@ -181,6 +181,9 @@ TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
   EXPECT_FALSE(c.can_profile.little_endian);
   EXPECT_EQ(c.can_profile.id_info, 0x230u);
   EXPECT_TRUE(c.can_profile.has_origin);
+  // The INS frame's origin is the world's: said in the maps this vehicle shares.
+  EXPECT_TRUE(c.lcm.has_world_origin);
+  EXPECT_EQ(c.lcm.world_origin.latitude_deg, 48.1);
   const std::pair<const char*, const char*> bad[] = {
       {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nposes: {source: gps}\n",
        "vehicle.yaml:3: poses.source must be one of"},
@@ -197,7 +200,20 @@ TEST(VehicleConfig, StrictWithFileAndLineAndRelativePaths) {
        "outputs.mavlink.autopilot must be ardupilot"},
       {"mapping: m.yaml\nframes: {source: replay, sequence: s}\n"
        "outputs: {mavlink: {autopilot: px4, messages: 3d}}\n",
-       "PX4 reads no OBSTACLE_DISTANCE_3D"}};
+       "PX4 reads no OBSTACLE_DISTANCE_3D"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\n"
+       "shared_maps: {channels: [OBSTACLE_MAP_HELI2]}\n",
+       "shared_maps needs this vehicle's 'vehicle:' name and 'world_origin:'"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nvehicle: h1\n"
+       "world_origin: [48.1, 11.5, 520]\nshared_maps: {channels: []}\n",
+       "shared_maps.channels must name 1 to 255"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nworld_origin: [95, 11.5, 0]\n",
+       "vehicle.yaml:3: world_origin is not a WGS84 position"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nworld_origin: [48, 11]\n",
+       "vehicle.yaml:3: world_origin must be [latitude, longitude, height]"},
+      {"mapping: m.yaml\nframes: {source: replay, sequence: s}\nworld_origin: [48, 11, 0]\n"
+       "poses: {source: can, origin: [48.1, 11.5, 520.0]}\n",
+       "poses.origin and world_origin differ"}};
   for (const auto& [text, expected] : bad) {
     std::ofstream(path) << text;
     EXPECT_FALSE(onboard::load_vehicle_config(path, &c, &error)) << text;
@@ -295,26 +311,9 @@ int obstacle_rows(const std::string& boxes_csv) {
                                                             : -1;
 }
 
-// The flight's sequence with every pose turned about the vertical by 180 degrees:
-// the same path with the camera looking back, never at the posts ahead.
+// The flight with the camera looking back along it, never at the posts ahead.
 std::string looking_back(const Flight& f) {
-  const std::string copy = f.dir / "seq-back";
-  std::filesystem::copy(f.sequence, copy, std::filesystem::copy_options::recursive);
-  std::ifstream in(f.sequence + "/groundtruth.txt");
-  std::ofstream out(copy + "/groundtruth.txt");
-  const Eigen::Quaterniond turn(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
-  for (std::string line; std::getline(in, line);) {
-    std::istringstream fields(line);
-    double t, x, y, z, qx, qy, qz, qw;
-    if (line.empty() || line[0] == '#' || !(fields >> t >> x >> y >> z >> qx >> qy >> qz >> qw)) {
-      out << line << "\n";
-      continue;
-    }
-    const Eigen::Quaterniond q = turn * Eigen::Quaterniond(qw, qx, qy, qz);
-    out << t << " " << x << " " << y << " " << z << " " << q.x() << " " << q.y() << " " << q.z()
-        << " " << q.w() << "\n";
-  }
-  return copy;
+  return zonemap::testing::copy_looking_back(f.sequence, f.dir / "seq-back");
 }
 
 // The map outlives the flight: saved every half second while flying, it is whole

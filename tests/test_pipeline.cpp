@@ -547,5 +547,60 @@ TEST(Pipeline, LiveInsThreadAndSinksGetUpdatesAndHealthWithoutAllocating) {
   EXPECT_EQ(s.extraction_thread_frees, 0);
 }
 
+// Another vehicle's maps come on a thread of their own while the flight is
+// mapped (a receiver's), each naming a mast 200 m ahead, the later ones a second
+// mast too: the extraction thread takes each whole map before an update, without
+// allocating, and the final map holds the posts seen and the masts shared, prior.
+TEST(Pipeline, SharedMapsFromAnotherThreadReachTheUpdatesWithoutAllocating) {
+  testing::Flight flight(24);
+  SharedMapInbox inbox(4);
+  std::atomic<bool> done{false};
+  std::atomic<int> posted{0};
+  std::thread receiver([&] {
+    while (!done.load()) {
+      SharedMapUpdate* u = inbox.take_free();
+      if (u == nullptr) {
+        std::this_thread::yield();  // every slot waits: the next map wins
+        continue;
+      }
+      u->source = 1;
+      u->min[0] = Eigen::Vector3d(200, 0, 0);
+      u->max[0] = Eigen::Vector3d(201, 1, 30);
+      u->min[1] = Eigen::Vector3d(200, 20, 0);
+      u->max[1] = Eigen::Vector3d(201, 21, 30);
+      u->count = posted.fetch_add(1) < 3 ? 1 : 2;
+      inbox.post(u);
+    }
+  });
+  replay::ReplayFrameSource frames(flight.sequence, 0.0);
+  RecordingSink recording;
+  hal::ObstacleSink* sinks[] = {&recording};
+  const runtime::PipelineStats s = flight.run(frames, nullptr, sinks, true, &inbox);
+  done.store(true);
+  receiver.join();
+  EXPECT_EQ(s.extraction_thread_allocations, 0);
+  EXPECT_EQ(s.extraction_thread_frees, 0);
+  const FeatureCounters& c = flight.features->counters();
+  EXPECT_GT(c.shared_updates, 0);
+  // Each mast's pieces (cut at zone faces) stored once, then kept map after map.
+  std::int64_t shared_pieces = 0;
+  for (const Feature& f : *flight.features) shared_pieces += f.in_use && f.shared_source == 1;
+  EXPECT_EQ(c.shared_added, shared_pieces);
+  EXPECT_GT(c.shared_kept, 0);
+  EXPECT_EQ(c.shared_removed, 0);
+  int masts = 0, posts = 0;
+  for (const ObstacleBox& b : flight.boxes()) {
+    if (b.kind != FeatureKind::kObstacle) continue;
+    if (b.min.x() >= 199.0) {
+      ++masts;
+      EXPECT_TRUE(b.prior);
+    } else {
+      ++posts;
+    }
+  }
+  EXPECT_EQ(masts, 2);
+  EXPECT_GE(posts, 2);
+}
+
 }  // namespace
 }  // namespace zonemap

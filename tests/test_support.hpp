@@ -3,12 +3,15 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <Eigen/Geometry>
 
 #include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
@@ -76,6 +79,27 @@ inline InsSolution valid_at(double t, const Eigen::Vector3d& p) {
   s.attitude_valid = s.position_valid = true;
   s.position_sigma_m = 0.3;
   return s;
+}
+
+// A copy of a sequence with every pose turned about the vertical by 180 degrees:
+// the same path with the camera looking back. Returns the copy's path.
+inline std::string copy_looking_back(const std::string& sequence, const std::string& copy) {
+  std::filesystem::copy(sequence, copy, std::filesystem::copy_options::recursive);
+  std::ifstream in(sequence + "/groundtruth.txt");
+  std::ofstream out(copy + "/groundtruth.txt");
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream fields(line);
+    double t, x, y, z, qx, qy, qz, qw;
+    if (line.empty() || line[0] == '#' || !(fields >> t >> x >> y >> z >> qx >> qy >> qz >> qw)) {
+      out << line << "\n";
+      continue;
+    }
+    const Eigen::Quaterniond q = turn * Eigen::Quaterniond(qw, qx, qy, qz);
+    out << t << " " << x << " " << y << " " << z << " " << q.x() << " " << q.y() << " " << q.z()
+        << " " << q.w() << "\n";
+  }
+  return copy;
 }
 
 inline std::string source_path(const std::string& relative) {

@@ -25,8 +25,9 @@ bool parse_number(const std::string& text, double* value) {
   return !text.empty() && end == text.c_str() + text.size();
 }
 
-// Why a box cannot be an obstacle, or empty.
-std::string check_box(const PriorBox& b) {
+}  // namespace
+
+std::string prior_box_problem(const PriorBox& b, bool world_z_up) {
   for (int a = 0; a < 3; ++a) {
     if (!std::isfinite(b.min[a]) || !std::isfinite(b.max[a])) return "a coordinate is not a number";
     if (b.max[a] < b.min[a]) return "the box is inside out (a max below its min)";
@@ -35,9 +36,12 @@ std::string check_box(const PriorBox& b) {
       return "the box lies over 1,000 km from the origin (another frame?)";
     }
   }
-  if (b.min.z() < kPriorLowestM) return "the box reaches below -1 km";
+  // Height is z up, -z in NED.
+  if ((world_z_up ? b.min.z() : -b.max.z()) < kPriorLowestM) return "the box reaches below -1 km";
   return {};
 }
+
+namespace {
 
 // Reads lines, numbering them; fail() names the file and line.
 struct LineReader {
@@ -68,7 +72,7 @@ bool parse_numbers(const std::vector<std::string>& f, std::size_t first, std::si
   return true;
 }
 
-bool read_boxes_csv(LineReader& r, PriorMap* map, std::string* error) {
+bool read_boxes_csv(LineReader& r, bool world_z_up, PriorMap* map, std::string* error) {
   std::string line;
   while (r.next(&line)) {
     if (line.empty() || line[0] == '#') continue;
@@ -87,7 +91,7 @@ bool read_boxes_csv(LineReader& r, PriorMap* map, std::string* error) {
     b.line = r.number;
     b.min = Eigen::Vector3d(v[0], v[1], v[2]);
     b.max = Eigen::Vector3d(v[3], v[4], v[5]);
-    why = check_box(b);
+    why = prior_box_problem(b, world_z_up);
     if (!why.empty()) return r.fail(map, error, why);
     map->boxes.push_back(b);
   }
@@ -147,7 +151,7 @@ bool read_survey(LineReader& r, bool world_z_up, PriorMap* map, std::string* err
     if (!(v[3] > 0.0) || !(v[4] > 0.0)) return r.fail(map, error, "radius and height must be > 0");
     PriorBox b = survey_box(plane, v, world_z_up);
     b.line = r.number;
-    why = check_box(b);
+    why = prior_box_problem(b, world_z_up);
     if (!why.empty()) return r.fail(map, error, why);
     map->boxes.push_back(b);
   }
@@ -174,7 +178,7 @@ bool load_prior_map(const std::string& path, bool world_z_up, PriorMap* map, std
                   "not a boxes.csv (its header must start id,kind,xmin,ymin,zmin,xmax,ymax,zmax) "
                   "nor a survey (# zonemap survey)");
   }
-  return read_boxes_csv(r, map, error);
+  return read_boxes_csv(r, world_z_up, map, error);
 }
 
 }  // namespace zonemap::hal

@@ -33,6 +33,10 @@ inline constexpr double kPriorMaxExtentM = 1000.0;  // wider: not an obstacle, a
 inline constexpr double kPriorLowestM = -1000.0;
 inline constexpr double kPriorFarthestM = 1.0e6;
 
+// Why a box cannot be an obstacle (not a number, inside out, wider than 1 km,
+// reaching below -1 km, over 1,000 km out), or empty: for every box from outside.
+std::string prior_box_problem(const PriorBox& box, bool world_z_up);
+
 bool load_prior_map(const std::string& path, bool world_z_up, PriorMap* map, std::string* error);
 
 }  // namespace zonemap::hal

@@ -74,8 +74,9 @@ enum class LogReason : int {
   kMalformedMessage = 13,  // fingerprint or length wrong: not decodable
   kDamagedLogRecord = 14,  // a damaged log event or candump line, skipped
   kLinkDown = 15,          // the bus or the LCM provider is not there (retrying)
+  kRejectedItem = 16,      // one item of a message refused (a shared map's box)
 };
-inline constexpr int kLogReasons = 16;
+inline constexpr int kLogReasons = 17;
 static_assert(static_cast<int>(InsRejection::kCount) <=
               static_cast<int>(LogReason::kWrongWorldFrame));
 inline LogReason gate_reason(InsRejection why) {

@@ -52,6 +52,20 @@ ObstacleMapMessage::ObstacleMapMessage(std::size_t max_boxes, std::size_t max_re
   message_.num_boxes = 0;
 }
 
+void ObstacleMapMessage::set_sender(const std::string& vehicle, const Geodetic* world_origin) {
+  message_.vehicle = vehicle;
+  message_.origin_valid = world_origin != nullptr;
+  const Geodetic o = world_origin != nullptr ? *world_origin : Geodetic{};
+  message_.origin[0] = o.latitude_deg;
+  message_.origin[1] = o.longitude_deg;
+  message_.origin[2] = o.height_m;
+  // The largest message grows by the name.
+  const std::size_t boxes = static_cast<std::size_t>(message_.num_boxes);
+  message_.num_boxes = static_cast<std::int32_t>(message_.boxes.size());
+  buffer_.resize(static_cast<std::size_t>(message_.getEncodedSize()));
+  message_.num_boxes = static_cast<std::int32_t>(boxes);
+}
+
 void ObstacleMapMessage::fill(std::int64_t utime, const Eigen::Vector3d& vehicle, bool world_z_up,
                               const ObstacleBox* boxes, std::size_t count,
                               const FootprintRect* rects, const std::uint32_t* offsets,
@@ -112,6 +126,49 @@ zonemap_lcm::obstacle_distance_t to_message(const ObstacleDistances& d, std::int
   m.max_distance_cm = d.max_distance_cm;
   for (int s = 0; s < kObstacleSectors; ++s) m.distances_cm[s] = d.distances_cm[s];
   return m;
+}
+
+namespace {
+
+// A big-endian int32 at `pos`, if it is there.
+bool read_count(const std::uint8_t* b, std::size_t size, std::size_t pos, std::int64_t* out) {
+  if (pos + 4 > size) return false;
+  const std::uint32_t v = (std::uint32_t{b[pos]} << 24) | (std::uint32_t{b[pos + 1]} << 16) |
+                          (std::uint32_t{b[pos + 2]} << 8) | std::uint32_t{b[pos + 3]};
+  *out = static_cast<std::int32_t>(v);
+  return true;
+}
+
+}  // namespace
+
+bool obstacle_map_counts_fit(const void* data, std::size_t size) {
+  // config/lcm/obstacle_map_t.lcm, encoded: fingerprint, utime, generation, frame,
+  // vehicle_position[3], total_boxes, then num_boxes; a box (no fingerprint):
+  // id, kind, min[3], max[3], cells, last_seen_utime, prior, then num_footprint
+  // rows of 4 floats; after the boxes the name (length with its NUL, bytes),
+  // origin_valid, origin[3].
+  constexpr std::size_t kHead = 8 + 8 + 4 + 1 + 24 + 4;
+  constexpr std::size_t kBoxFixed = 4 + 1 + 24 + 24 + 4 + 8 + 1;
+  constexpr std::size_t kRect = 16;
+  constexpr std::size_t kTail = 1 + 24;
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  std::int64_t boxes = 0;
+  if (!read_count(b, size, kHead, &boxes) || boxes < 0) return false;
+  std::size_t pos = kHead + 4;
+  // Each box takes at least kBoxFixed + 4 bytes: the loop is bounded by the size.
+  if (static_cast<std::size_t>(boxes) > (size - pos) / (kBoxFixed + 4)) return false;
+  for (std::int64_t i = 0; i < boxes; ++i) {
+    std::int64_t rects = 0;
+    if (!read_count(b, size, pos + kBoxFixed, &rects) || rects < 0) return false;
+    pos += kBoxFixed + 4;
+    if (static_cast<std::size_t>(rects) > (size - pos) / kRect) return false;
+    pos += static_cast<std::size_t>(rects) * kRect;
+  }
+  std::int64_t name = 0;
+  if (!read_count(b, size, pos, &name) || name < 1) return false;
+  pos += 4;
+  return static_cast<std::size_t>(name) <= size - pos &&
+         kTail <= size - pos - static_cast<std::size_t>(name);
 }
 
 }  // namespace zonemap::lcm_link

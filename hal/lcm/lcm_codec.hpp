@@ -6,9 +6,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "zonemap/feature_map.hpp"
+#include "zonemap/geodetic.hpp"
 #include "zonemap/ins_gate.hpp"
 #include "zonemap/obstacle_distance.hpp"
 #include "zonemap_lcm/camera_mount_t.hpp"
@@ -31,6 +33,9 @@ zonemap_lcm::ins_state_t to_message(const InsSolution& s, bool world_z_up, std::
 class ObstacleMapMessage {
  public:
   ObstacleMapMessage(std::size_t max_boxes, std::size_t max_rects_per_box);
+  // Who sends the map and where its world frame stands (null: no origin, the
+  // map cannot be shared); set once, before the first fill.
+  void set_sender(const std::string& vehicle, const Geodetic* world_origin);
   // rects/rect_counts: per box (rect_counts[i] rectangles from rects + offsets[i]); may be null.
   void fill(std::int64_t utime, const Eigen::Vector3d& vehicle, bool world_z_up,
             const ObstacleBox* boxes, std::size_t count, const FootprintRect* rects,
@@ -48,5 +53,10 @@ class ObstacleMapMessage {
 };
 
 zonemap_lcm::obstacle_distance_t to_message(const ObstacleDistances& d, std::int64_t utime);
+
+// Whether an obstacle_map_t's counts and lengths (boxes, each box's footprint, the
+// vehicle's name) fit in `size` bytes: lcm-gen's decoder sizes its vectors and
+// string from them before it checks, so a message from outside is walked first.
+bool obstacle_map_counts_fit(const void* data, std::size_t size);
 
 }  // namespace zonemap::lcm_link

@@ -14,6 +14,7 @@ LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut& o
 
 LcmObstacleSink::LcmObstacleSink(const LcmOutputConfig& config, LcmMessageOut* out)
     : config_(config), out_(out), map_(config.max_boxes, config.max_rects_per_box) {
+  map_.set_sender(config.vehicle, config.has_world_origin ? &config.world_origin : nullptr);
   health_.num_counters = hal::HealthSnapshot::kMaxNamed;
   health_.counter_names.assign(hal::HealthSnapshot::kMaxNamed, std::string(63, 'x'));
   health_.counter_values.assign(hal::HealthSnapshot::kMaxNamed, 0);

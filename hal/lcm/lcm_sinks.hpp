@@ -23,6 +23,11 @@ struct LcmOutputConfig {
   std::string distance_channel = "OBSTACLE_DIST";
   std::string health_channel = "ZONEMAP_HEALTH";
   std::string mount_channel = "ZONEMAP_MOUNT";  // camera_mount_t, with every health message
+  // Said in every obstacle_map_t, so that another vehicle can take the map into
+  // its own frame (vehicle.yaml `vehicle`, `world_origin`).
+  std::string vehicle = "zonemap";
+  bool has_world_origin = false;
+  Geodetic world_origin;
   double rate_hz = 10.0;
   std::size_t max_boxes = 512;
   std::size_t max_rects_per_box = 64;

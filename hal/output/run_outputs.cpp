@@ -75,7 +75,12 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"priors_added\": " << s.feature_counters.priors_added
       << ", \"priors_confirmed\": " << s.feature_counters.priors_confirmed
       << ", \"priors_removed\": " << s.feature_counters.priors_removed
-      << ", \"priors_dropped\": " << s.feature_counters.priors_dropped << "},\n"
+      << ", \"priors_dropped\": " << s.feature_counters.priors_dropped
+      << ", \"shared_updates\": " << s.feature_counters.shared_updates
+      << ", \"shared_added\": " << s.feature_counters.shared_added
+      << ", \"shared_kept\": " << s.feature_counters.shared_kept
+      << ", \"shared_removed\": " << s.feature_counters.shared_removed
+      << ", \"shared_dropped\": " << s.feature_counters.shared_dropped << "},\n"
       << "  \"extract_ms\": {\"p50\": " << s.extract_ms_p50 << ", \"max\": " << s.extract_ms_max
       << "},\n"
       << "  \"pipeline\": " << (s.pipeline ? "true" : "false") << ",\n"

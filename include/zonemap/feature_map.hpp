@@ -28,6 +28,9 @@ enum class FeatureKind : std::uint8_t { kObstacle, kGround };
 struct Feature {
   std::uint32_t id = 0;  // stable across re-extractions of the same object
   FeatureKind kind = FeatureKind::kObstacle;
+  // 0: this vehicle's map; else the map shared by sender `shared_source` (1..):
+  // never written into the grid, replaced by that sender's next map (replace_shared).
+  std::uint8_t shared_source = 0;
   ZoneKey zone;
   CellIndex min;  // world cells, inclusive; always inside `zone`
   CellIndex max;
@@ -41,9 +44,11 @@ struct Feature {
   bool has_shape = false;  // false: the pool was full, the whole box counts as occupied
   bool in_use = false;
   bool stale = false;  // during an update of its zone: not matched yet
-  // Known before the flight (add_prior) and not yet confirmed by a view.
+  // Known before the flight (add_prior) or from another vehicle (replace_shared),
+  // and not yet confirmed by a view of this vehicle's camera.
   bool prior = false;
 };
+static_assert(sizeof(Feature) <= 80, "the store's size is in the memory budget");
 
 // One object of the output: per-zone features of the same object merged.
 struct ObstacleBox {
@@ -87,6 +92,11 @@ struct FeatureCounters {
   // A-priori features (add_prior): pieces stored, confirmed occupied by a view,
   // removed when views saw their cells free, not stored (the store was full).
   std::int64_t priors_added = 0, priors_confirmed = 0, priors_removed = 0, priors_dropped = 0;
+  // Maps shared by other vehicles (replace_shared): updates taken, pieces added,
+  // kept (the same object again), removed (no longer in the sender's map), not
+  // stored (the store was full).
+  std::int64_t shared_updates = 0, shared_added = 0, shared_kept = 0, shared_removed = 0,
+               shared_dropped = 0;
 };
 
 class FeatureMap : public ZoneObserver {
@@ -128,6 +138,16 @@ class FeatureMap : public ZoneObserver {
   // vehicle); a piece left out is counted and the call returns false.
   bool add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m);
 
+  // Another vehicle's map (its obstacles in this map's world metres, min/max
+  // pairs): replaces what `source` (1..255) sent before. Its boxes are cut at
+  // zone faces like priors and marked prior (no view of ours confirmed them),
+  // but never written into the grid: the sender's map stays the sender's, and
+  // leaves with its next map that lacks a box. A piece overlapping one that
+  // source sent before keeps its id. Store full: the relevance rule, counted.
+  // Returns the pieces stored.
+  std::size_t replace_shared(std::uint8_t source, const Eigen::Vector3d* min_m,
+                             const Eigen::Vector3d* max_m, std::size_t count);
+
   // ZoneObserver: re-integration on allocation, extraction before discard.
   void on_zone_allocated(ZoneView& zone) override;
 
@@ -137,7 +157,10 @@ class FeatureMap : public ZoneObserver {
   template <typename Emit>
   void for_each_reintegration_box(const ZoneKey& key, Emit&& emit) const {
     for (const Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
-      if (!f->in_use || f->kind != FeatureKind::kObstacle || !(f->zone == key)) continue;
+      if (!f->in_use || f->kind != FeatureKind::kObstacle || !(f->zone == key) ||
+          f->shared_source != 0) {
+        continue;
+      }
       if (!f->has_shape) {
         emit(f->min, f->max);
         continue;
@@ -203,6 +226,18 @@ class FeatureMap : public ZoneObserver {
   bool append_footprint(const Feature& f, FootprintOutput* out) const;
   Feature* free_slot(double new_relevance);
   bool add_prior_piece(const ZoneKey& zone, const CellIndex& min, const CellIndex& max);
+  // The box of world metres [min, max) as world cells cut at the zone faces:
+  // fn(zone, min cell, max cell) per piece (bounded by the box's extent in zones).
+  template <typename Fn>
+  void for_each_zone_piece(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m,
+                           Fn&& fn) const;
+  // The stale feature of `zone` that `pick` accepts and that overlaps [min, max]
+  // most (the same object as before), or null.
+  template <typename Pick>
+  Feature* most_overlapping_stale(const ZoneKey& zone, const CellIndex& min, const CellIndex& max,
+                                  Pick&& pick);
+  void add_or_keep_shared(std::uint8_t source, const ZoneKey& zone, const CellIndex& min,
+                          const CellIndex& max);
   void remove(Feature* f);
   int height_of(int z) const { return z_up_ ? z : dims_[2] - 1 - z; }
   // Extraction steps: the 6-connected component of one class from `start` into

@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
+#include <lcm/lcm.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/stat.h>
@@ -12,6 +13,8 @@
 
 #include <chrono>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -24,6 +27,7 @@
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
+#include "zonemap/geodetic.hpp"
 
 extern char** environ;
 
@@ -313,4 +317,152 @@ TEST(LcmMulticast, LoggedObstacleMapHoldsEachPostWhereItStandsAndSaysItsFrames) 
   EXPECT_NEAR(mount.body_q_camera[1], q.x(), 1e-9);
   EXPECT_NEAR(mount.body_q_camera[2], q.y(), 1e-9);
   EXPECT_NEAR(mount.body_q_camera[3], q.z(), 1e-9);
+}
+
+namespace {
+
+// The daemon with a config, its stderr to a file.
+pid_t start_daemon(const std::string& config, const std::string& log) {
+  const std::string command =
+      std::string(ZONEMAP_DAEMON_PATH) + " --config " + config + " 2>" + log;
+  return start({"sh", "-c", "exec " + command});
+}
+
+// One vehicle's vehicle.yaml: the flight replayed at its camera's rate, its map
+// on LCM on its own channel, said in its frame about `origin`.
+std::string vehicle_yaml(const std::string& name, const std::string& mapping,
+                         const std::string& sequence, const Geodetic& origin,
+                         const std::string& out, const std::string& shared_channel,
+                         double rate_hz) {
+  std::ostringstream y;
+  y.precision(10);
+  y << "mapping: " << mapping << "\nvehicle: " << name << "\nworld_origin: [" << origin.latitude_deg
+    << ", " << origin.longitude_deg << ", " << origin.height_m << "]\n"
+    << "live: true\nframes: {source: replay, sequence: " << sequence << ", rate_hz: " << rate_hz
+    << "}\n"
+    << "poses: {source: sequence}\noutputs:\n  directory: " << out << "\n"
+    << "  lcm: {url: \"" << kUrl << "\", map_channel: OBSTACLE_MAP_" << name << ", rate_hz: 10}\n";
+  if (!shared_channel.empty()) {
+    y << "shared_maps: {url: \"" << kUrl << "\", channels: [" << shared_channel << "]}\n";
+  }
+  return y.str();
+}
+
+// What a listener on the bus saw of one vehicle's maps.
+struct MapWatch {
+  std::string channel;
+  std::vector<Eigen::Vector3d> posts;  // the posts' middles in this vehicle's frame
+  bool expect_prior = false;
+  double first_all_s = -1.0;  // when a map first held every post
+  int maps = 0;
+  zonemap_lcm::obstacle_map_t last;
+
+  bool holds(const zonemap_lcm::obstacle_map_t& m, const Eigen::Vector3d& p) const {
+    for (const zonemap_lcm::obstacle_box_t& b : m.boxes) {
+      bool in = b.prior == expect_prior;
+      for (int k = 0; k < 3; ++k) in &= p[k] >= b.min[k] - 1e-3 && p[k] <= b.max[k] + 1e-3;
+      if (in) return true;
+    }
+    return false;
+  }
+  static void on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+    auto* w = static_cast<MapWatch*>(self);
+    zonemap_lcm::obstacle_map_t m;
+    if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+    ++w->maps;
+    bool all = true;
+    for (const Eigen::Vector3d& p : w->posts) all &= w->holds(m, p);
+    if (all && w->first_all_s < 0.0) w->first_all_s = now_s();
+    w->last = m;
+  }
+};
+
+}  // namespace
+
+// Two vehicles share a map (a fleet): heli1 flies the posts flight with its
+// camera looking back (it never sees them) in a world frame whose origin stands
+// 200 m south and 50 m west of heli2's; heli2 flies it looking ahead. heli1
+// takes heli2's obstacle_map_t and lists both posts in its own map, in its own
+// frame, marked prior (no view of its own), within a second of heli2 first
+// publishing them; both daemons and this listener in the private namespace.
+TEST(LcmMulticast, TwoVehiclesShareAMapEachInItsOwnFrameWithinASecond) {
+  zonemap::testing::TempDir dir;
+  const std::string sequence = dir / "seq";
+  const std::string mapping =
+      zonemap::testing::write_test_scenario("posts-through", sequence, 4.0, 4, 40);
+  ASSERT_FALSE(mapping.empty());
+  const std::string back = zonemap::testing::copy_looking_back(sequence, dir / "seq-back");
+  // heli1 publishes every frame (every half second at its 2 Hz): the delay measured
+  // is the sharing's, not a publish period's.
+  std::string heli1_mapping = zonemap::testing::read_text(mapping);
+  const auto every = heli1_mapping.find("publish_every_frames: 3");
+  ASSERT_NE(every, std::string::npos);
+  heli1_mapping.replace(every, 23, "publish_every_frames: 1");
+  zonemap::testing::write_text(dir / "heli1-mapping.yaml", heli1_mapping);
+  std::vector<tools::TruthObject> objects;
+  std::string error;
+  ASSERT_TRUE(tools::load_objects_yaml(sequence + "/objects.yaml", &objects, &error)) << error;
+  ASSERT_EQ(objects.size(), 2u);
+
+  const Geodetic heli2_origin{47.3769, 8.5417, 410.0};
+  const LocalTangentPlane heli2_plane(heli2_origin);
+  const Geodetic heli1_origin = heli2_plane.to_geodetic({-200.0, -50.0, 0.0});  // south, west
+  MapWatch heli1, heli2;
+  heli1.channel = "OBSTACLE_MAP_heli1";
+  heli2.channel = "OBSTACLE_MAP_heli2";
+  heli1.expect_prior = true;
+  for (const tools::TruthObject& post : objects) {
+    const Eigen::Vector3d middle(post.centre.x(), post.centre.y(),
+                                 0.5 * (post.min.z() + post.max.z()));
+    heli2.posts.push_back(middle);
+    // z up: x north, y west; heli1's origin 200 m south, 50 m west of heli2's.
+    heli1.posts.push_back(middle + Eigen::Vector3d(200.0, -50.0, 0.0));
+  }
+
+  lcm_t* bus = lcm_create(kUrl);
+  ASSERT_NE(bus, nullptr);
+  lcm_subscribe(bus, heli1.channel.c_str(), &MapWatch::on_message, &heli1);
+  lcm_subscribe(bus, heli2.channel.c_str(), &MapWatch::on_message, &heli2);
+  const std::string heli1_yaml = dir / "heli1.yaml";
+  const std::string heli2_yaml = dir / "heli2.yaml";
+  // heli1 replays at half the camera's rate: in the air before heli2 and after.
+  std::ofstream(heli1_yaml) << vehicle_yaml("heli1", dir / "heli1-mapping.yaml", back, heli1_origin,
+                                            dir / "out1", heli2.channel, 2.0);
+  std::ofstream(heli2_yaml) << vehicle_yaml("heli2", mapping, sequence, heli2_origin, dir / "out2",
+                                            "", 4.0);
+  const pid_t first = start_daemon(heli1_yaml, dir / "heli1.log");
+  ASSERT_GT(first, 0);
+  const double deadline = now_s() + 60.0;
+  while (heli1.maps == 0) {  // heli1 is publishing: it is listening too
+    ASSERT_LT(now_s(), deadline) << zonemap::testing::read_text(dir / "heli1.log");
+    lcm_handle_timeout(bus, 200);
+  }
+  const pid_t second = start_daemon(heli2_yaml, dir / "heli2.log");
+  ASSERT_GT(second, 0);
+  while (heli1.first_all_s < 0.0 && now_s() < deadline) lcm_handle_timeout(bus, 200);
+  kill(first, SIGTERM);
+  kill(second, SIGTERM);
+  EXPECT_EQ(finish(first), 0) << zonemap::testing::read_text(dir / "heli1.log");
+  finish(second);
+  lcm_destroy(bus);
+
+  ASSERT_GT(heli2.first_all_s, 0.0)
+      << "heli2 never mapped both posts: " << zonemap::testing::read_text(dir / "heli2.log");
+  ASSERT_GT(heli1.first_all_s, 0.0)
+      << "heli1 never listed heli2's posts: " << zonemap::testing::read_text(dir / "heli1.log");
+  const double delay = heli1.first_all_s - heli2.first_all_s;
+  std::printf("heli2 published both posts; heli1 listed them %.3f s later (%d and %d maps)\n",
+              delay, heli2.maps, heli1.maps);
+  RecordProperty("share_delay_ms", static_cast<int>(delay * 1000.0));
+  EXPECT_LE(delay, 1.0);
+  // In heli1's frame, within a cell of where heli2 put them.
+  const zonemap_lcm::obstacle_map_t& m = heli1.last;
+  EXPECT_EQ(m.vehicle, "heli1");
+  EXPECT_TRUE(m.origin_valid);
+  EXPECT_NEAR(m.origin[0], heli1_origin.latitude_deg, 1e-9);
+  for (std::size_t p = 0; p < heli1.posts.size(); ++p) {
+    EXPECT_TRUE(heli1.holds(m, heli1.posts[p])) << objects[p].name;
+  }
+  const std::string stats = zonemap::testing::read_text(dir / "out1/stats.json");
+  EXPECT_NE(stats.find("\"shared_maps_in\""), std::string::npos) << stats;
 }

@@ -1,0 +1,274 @@
+// Maps shared between vehicles: another vehicle's obstacle_map_t taken into this
+// map's frame through both world origins (every check on each box, the whole
+// message refused when it cannot be placed), handed over through a fixed inbox,
+// and kept in the feature map as the sender's: in every output marked prior,
+// never written into the grid, replaced by the sender's next map.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "hal/lcm/lcm_codec.hpp"
+#include "hal/lcm/lcm_shared_maps.hpp"
+#include "hal/os/allocation_counter.hpp"
+#include "zonemap/feature_map.hpp"
+#include "zonemap/geodetic.hpp"
+#include "zonemap/shared_map_inbox.hpp"
+
+namespace zonemap {
+namespace {
+
+using lcm_link::SharedMapDecoder;
+using lcm_link::SharedMapsConfig;
+
+std::size_t replace(FeatureMap& features, std::uint8_t source,
+                    std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> boxes) {
+  std::vector<Eigen::Vector3d> lo, hi;
+  for (const auto& [a, b] : boxes) {
+    lo.push_back(a);
+    hi.push_back(b);
+  }
+  return features.replace_shared(source, lo.data(), hi.data(), lo.size());
+}
+
+TEST(SharedMap, ABoxIsTheSendersUntilItsNextMapLacksIt) {
+  MapConfig config;  // 1 m cells, zones of 80 x 80 x 10
+  FeatureMap features(config, true);
+  EXPECT_EQ(replace(features, 1, {{{78.5, 10, 0}, {81.5, 12, 5}}}), 2u);  // across x = 80
+  ObstacleBox out[4];
+  ASSERT_EQ(features.merged(out, 4, false), 1u);
+  EXPECT_TRUE(out[0].prior) << "no view of ours has confirmed it";
+  EXPECT_EQ(out[0].min, Eigen::Vector3d(78, 10, 0));
+  EXPECT_EQ(out[0].max, Eigen::Vector3d(82, 12, 5));
+  const std::uint32_t id = out[0].id;
+
+  // Never written into the grid: the sender's map stays the sender's.
+  int boxes = 0;
+  features.for_each_reintegration_box(ZoneKey{0, 0, 0}, [&](auto&&, auto&&) { ++boxes; });
+  EXPECT_EQ(boxes, 0);
+
+  // The same object moved by half a metre: the same pieces, the same id.
+  EXPECT_EQ(replace(features, 1, {{{79.0, 10, 0}, {82.0, 12, 5}}}), 2u);
+  ASSERT_EQ(features.merged(out, 4, false), 1u);
+  EXPECT_EQ(out[0].id, id);
+  EXPECT_EQ(out[0].max.x(), 82.0);
+  EXPECT_EQ(features.counters().shared_kept, 2);
+
+  // Another sender's map leaves this one's alone; this one's next map without it removes it.
+  EXPECT_EQ(replace(features, 2, {{{10, 10, 0}, {11, 11, 3}}}), 1u);
+  EXPECT_EQ(replace(features, 1, {}), 0u);
+  ASSERT_EQ(features.merged(out, 4, false), 1u);
+  EXPECT_EQ(out[0].min, Eigen::Vector3d(10, 10, 0));
+  EXPECT_EQ(features.counters().shared_removed, 2);
+  EXPECT_EQ(features.counters().shared_updates, 4);
+}
+
+// An extraction of the zone finds nothing of it in the grid, and keeps it: the
+// grid never held it. This vehicle's own object there is its own feature; the
+// output joins the two, no longer prior.
+TEST(SharedMap, AnExtractionKeepsItAndAnOwnViewOfTheSameObjectJoinsIt) {
+  MapConfig config;
+  config.zone_cells = {20, 20, 10};
+  config.features.min_cells = 1;
+  config.features.ground_enabled = false;
+  FeatureMap features(config, true);
+  std::vector<FusedCell> cells(20 * 20 * 10, 0);
+  ZoneView zone{ZoneKey{0, 0, 0}, CellIndex{0, 0, 0}, config.zone_cells, cells.data()};
+  ASSERT_EQ(replace(features, 1, {{{4, 4, 0}, {6, 6, 4}}}), 1u);
+  features.extract(zone);
+  ObstacleBox out[4];
+  ASSERT_EQ(features.merged(out, 4, false), 1u) << "an empty grid does not remove it";
+  EXPECT_TRUE(out[0].prior);
+
+  // The post seen by this vehicle: cells 4..5 x 4..5 x 1..3 occupied.
+  for (int z = 1; z <= 3; ++z)
+    for (int y = 4; y <= 5; ++y)
+      for (int x = 4; x <= 5; ++x) cells[zone.index(x, y, z)] = 4 * kCellScale;
+  features.extract(zone);
+  EXPECT_EQ(features.count(), 2u);
+  ASSERT_EQ(features.merged(out, 4, false), 1u);
+  EXPECT_FALSE(out[0].prior) << "seen by this vehicle too";
+  EXPECT_EQ(out[0].parts, 2);
+}
+
+TEST(SharedMap, WhenTheStoreIsFullTheRelevanceRuleDecidesAndCounts) {
+  MapConfig config;
+  config.features.capacity = 2;
+  FeatureMap features(config, true);
+  features.set_context(0.0, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(features.add_prior({10, 10, 0}, {11, 11, 5}));
+  // Two shared boxes: a near one takes the last slot, a far one of the same size is left out.
+  EXPECT_EQ(replace(features, 1, {{{12, 12, 0}, {13, 13, 5}}, {{300, 300, 0}, {301, 301, 5}}}), 1u);
+  EXPECT_EQ(features.counters().shared_added, 1);
+  EXPECT_EQ(features.counters().shared_dropped, 1);
+  EXPECT_EQ(features.count(), 2u);
+}
+
+TEST(SharedMap, TheInboxHandsOverWithoutAllocatingAndCountsAFullOne) {
+  SharedMapInbox inbox(8);
+  os::AllocationScope scope;
+  SharedMapUpdate* taken[SharedMapInbox::kSlots];
+  for (auto& t : taken) {
+    t = inbox.take_free();
+    ASSERT_NE(t, nullptr);
+    t->count = 1;
+    t->min[0] = Eigen::Vector3d(1, 2, 3);
+    inbox.post(t);
+  }
+  EXPECT_EQ(inbox.take_free(), nullptr);
+  EXPECT_EQ(inbox.dropped(), 1);
+  for (int i = 0; i < static_cast<int>(SharedMapInbox::kSlots); ++i) {
+    SharedMapUpdate* u = inbox.next();
+    ASSERT_EQ(u, taken[i]) << "in the order posted";
+    inbox.release(u);
+  }
+  EXPECT_EQ(inbox.next(), nullptr);
+  EXPECT_NE(inbox.take_free(), nullptr);
+  EXPECT_EQ(scope.counted().allocations, 0);
+}
+
+// --- the message -------------------------------------------------------------------
+
+struct Sent {
+  const char* vehicle = "heli-2";
+  bool world_z_up = true;
+  const Geodetic* origin = nullptr;
+  std::vector<ObstacleBox> boxes;
+};
+
+std::vector<std::uint8_t> encode(const Sent& s) {
+  lcm_link::ObstacleMapMessage map(64, 4);
+  map.set_sender(s.vehicle, s.origin);
+  map.fill(1, Eigen::Vector3d::Zero(), s.world_z_up, s.boxes.data(), s.boxes.size(), nullptr,
+           nullptr, nullptr);
+  const std::uint8_t* bytes = nullptr;
+  const std::size_t size = map.encode(&bytes);
+  return {bytes, bytes + size};
+}
+
+ObstacleBox box(Eigen::Vector3d min, Eigen::Vector3d max, bool prior = false,
+                FeatureKind kind = FeatureKind::kObstacle) {
+  ObstacleBox b;
+  b.id = 7;
+  b.min = min;
+  b.max = max;
+  b.prior = prior;
+  b.kind = kind;
+  return b;
+}
+
+const Geodetic kOwnOrigin{48.1, 11.5, 520.0};
+
+SharedMapsConfig own_config(bool world_z_up) {
+  SharedMapsConfig c;
+  c.vehicle = "heli-1";
+  c.world_origin = kOwnOrigin;
+  c.world_z_up = world_z_up;
+  c.max_boxes = 3;
+  return c;
+}
+
+// The sender's origin 40 m north, 20 m east and 2 m above ours: its post at
+// (10, 5) north-west-up is at (50, -15) in ours, 2 m higher; in NED the same.
+TEST(SharedMapMessage, ABoxMovesFromTheSendersFrameToOursThroughTheOrigins) {
+  const Geodetic sender = LocalTangentPlane(kOwnOrigin).to_geodetic({40.0, 20.0, -2.0});
+  for (const bool own_z_up : {true, false}) {
+    for (const bool sender_z_up : {true, false}) {
+      Sent s;
+      s.origin = &sender;
+      s.world_z_up = sender_z_up;
+      // North 10..11, west 5..6 (east -6..-5), up 0..8.
+      s.boxes = {sender_z_up ? box({10, 5, 0}, {11, 6, 8}) : box({10, -6, -8}, {11, -5, 0})};
+      SharedMapDecoder decoder(own_config(own_z_up));
+      SharedMapInbox inbox(3);
+      SharedMapUpdate* u = inbox.take_free();
+      const auto bytes = encode(s);
+      ASSERT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+      ASSERT_EQ(u->count, 1u);
+      const Eigen::Vector3d lo =
+          own_z_up ? Eigen::Vector3d(50, -15, 2) : Eigen::Vector3d(50, 14, -10);
+      const Eigen::Vector3d hi =
+          own_z_up ? Eigen::Vector3d(51, -14, 10) : Eigen::Vector3d(51, 15, -2);
+      EXPECT_LT((u->min[0] - lo).cwiseAbs().maxCoeff(), 0.01) << u->min[0].transpose();
+      EXPECT_LT((u->max[0] - hi).cwiseAbs().maxCoeff(), 0.01) << u->max[0].transpose();
+    }
+  }
+}
+
+TEST(SharedMapMessage, OnlyWhatTheSenderMeasuredIsTakenAndABadBoxCostsOnlyItself) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Sent s;
+  s.origin = &kOwnOrigin;
+  s.boxes = {box({0, 0, 0}, {1, 1, 2}),
+             box({5, 5, 0}, {6, 6, 2}, true),                             // its prior: not measured
+             box({0, 0, 0}, {30, 30, 0.5}, false, FeatureKind::kGround),  // ground
+             box({0, 0, 0}, {nan, 1, 2}),                                 // not a number
+             box({0, 0, 0}, {1500, 1, 2}),                                // over 1 km wide
+             box({0, 0, -1200}, {1, 1, -1100}),                           // below -1 km
+             box({3, 1, 0}, {2, 2, 2}),                                   // inside out
+             box({2, 2, 0}, {3, 3, 2}),
+             box({4, 4, 0}, {5, 5, 2}),
+             box({6, 6, 0}, {7, 7, 2})};  // the fourth measured: over max_boxes 3
+  SharedMapDecoder decoder(own_config(true));
+  SharedMapInbox inbox(3);
+  SharedMapUpdate* u = inbox.take_free();
+  const auto bytes = encode(s);
+  ASSERT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_EQ(u->count, 3u);
+  const lcm_link::SharedMapCounters& c = decoder.counters();
+  EXPECT_EQ(c.boxes_taken, 3);
+  EXPECT_EQ(c.boxes_not_measured, 2);
+  EXPECT_EQ(c.boxes_rejected, 4);
+  EXPECT_EQ(c.boxes_over_capacity, 1);
+  for (std::size_t i = 0; i < u->count; ++i) {
+    EXPECT_TRUE(u->min[i].allFinite() && u->max[i].allFinite());
+  }
+}
+
+TEST(SharedMapMessage, AMapThatCannotBePlacedIsRefusedWhole) {
+  SharedMapDecoder decoder(own_config(true));
+  SharedMapInbox inbox(3);
+  SharedMapUpdate* u = inbox.take_free();
+  Sent no_origin;
+  no_origin.boxes = {box({0, 0, 0}, {1, 1, 2})};
+  auto bytes = encode(no_origin);
+  EXPECT_FALSE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_EQ(decoder.counters().refused_no_origin, 1);
+
+  Sent own = no_origin;
+  own.origin = &kOwnOrigin;
+  own.vehicle = "heli-1";
+  bytes = encode(own);
+  EXPECT_FALSE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_EQ(decoder.counters().refused_own, 1);
+
+  Sent good = no_origin;
+  good.origin = &kOwnOrigin;
+  bytes = encode(good);
+  for (const std::size_t cut : {std::size_t{0}, std::size_t{9}, bytes.size() - 1}) {
+    EXPECT_FALSE(decoder.decode(bytes.data(), cut, u, 0.0)) << "truncated to " << cut;
+  }
+  std::vector<std::uint8_t> wrong = bytes;
+  wrong[0] ^= 0xFF;  // another type's fingerprint
+  EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0));
+  // Counts that lcm-gen's decoder would size its vectors by before checking them:
+  // the box count (after 49 bytes) negative or past the message, the name's
+  // length (the last 29 bytes: length, "heli-2", flag, origin) zero.
+  for (const std::uint8_t first : {std::uint8_t{0xFF}, std::uint8_t{0x7F}}) {
+    wrong = bytes;
+    wrong[49] = first;
+    EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0)) << int(first);
+  }
+  wrong = bytes;
+  const std::size_t name = bytes.size() - 1 - 24 - 7 - 4;
+  wrong[name + 3] = 0;
+  EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0));
+  EXPECT_EQ(decoder.counters().malformed, 7);
+  EXPECT_EQ(u->count, 0u);
+  EXPECT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_EQ(u->count, 1u);
+}
+
+}  // namespace
+}  // namespace zonemap

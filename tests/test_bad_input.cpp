@@ -138,8 +138,8 @@ TEST(BadConfig, OutOfRangeValuesAreRefused) {
 }
 
 TEST(BadConfig, ShippedConfigsLoad) {
-  for (const char* name : {"paper-flight1.yaml", "paper-flight2.yaml", "paper-flight3.yaml",
-                           "indoor-kinect.yaml", "tum-rgbd.yaml"}) {
+  for (const char* name : {"outdoor-0.5m.yaml", "paper-flight1.yaml", "paper-flight2.yaml",
+                           "paper-flight3.yaml", "indoor-kinect.yaml", "tum-rgbd.yaml"}) {
     MapConfig config;
     std::string error;
     EXPECT_TRUE(

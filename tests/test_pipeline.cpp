@@ -602,5 +602,26 @@ TEST(Pipeline, SharedMapsFromAnotherThreadReachTheUpdatesWithoutAllocating) {
   EXPECT_GE(posts, 2);
 }
 
+// The design card's budget: flight 2 (the paper's camera, 640x480) in all, through
+// the onboard runtime, at most 64 MiB, with the outdoor default as shipped and
+// the paper's flight-2 config.
+TEST(MemoryBudget, FlightTwoInAllHoldsIn64MiBWithTheShippedConfigs) {
+  testing::TempDir dir;
+  ASSERT_FALSE(test_sequence(dir, "treeline-dense", 10.0, 3).empty());
+  for (const char* name : {"outdoor-0.5m", "paper-flight2"}) {
+    tools::ReplayOptions options = testing::quiet_replay(
+        dir / "seq", testing::source_path(std::string("config/") + name + ".yaml"));
+    std::string error;
+    tools::ReplayRun run;
+    ASSERT_TRUE(run.open(options, &error)) << error;
+    run.run_pipelined(runtime::PipelineOptions{});
+    const std::uint64_t bytes = run.stats().static_memory_bytes;
+    std::printf("%s: %llu bytes reserved in all (%.2f MiB)\n", name,
+                static_cast<unsigned long long>(bytes), static_cast<double>(bytes) / 1048576.0);
+    EXPECT_GT(bytes, 60u << 20) << name << ": the whole of it counted";
+    EXPECT_LE(bytes, 64u << 20) << name;
+  }
+}
+
 }  // namespace
 }  // namespace zonemap

@@ -12,8 +12,8 @@
 using namespace zonemap;
 
 TEST(RuntimeConfig, ShippedConfigsGiveTheirPipelineSection) {
-  for (const char* name : {"paper-flight1", "paper-flight2", "paper-flight3", "indoor-kinect",
-                           "euroc-mav", "tum-rgbd"}) {
+  for (const char* name : {"outdoor-0.5m", "paper-flight1", "paper-flight2", "paper-flight3",
+                           "indoor-kinect", "euroc-mav", "tum-rgbd"}) {
     const std::string path = zonemap::testing::source_path(std::string("config/") + name + ".yaml");
     runtime::PipelineOptions options;
     std::string error;

@@ -25,10 +25,22 @@ namespace zonemap::onboard {
 VehicleDaemon::~VehicleDaemon() = default;
 
 bool VehicleDaemon::open(const VehicleConfig& config, std::string* error) {
+  return open(config, nullptr, error);
+}
+
+bool VehicleDaemon::open(const VehicleConfig& config, std::unique_ptr<hal::FrameSource> frames,
+                         std::string* error) {
   config_ = config;
   if (!hal::load_map_config(config.mapping_path, &map_config_, error)) return false;
   config_.gate.time = map_config_.timestamps;
-  if (!open_frames(error) || !open_poses(error)) return false;
+  if (frames) {
+    camera_ = frames->camera();
+    frames_ = std::move(frames);
+    external_frames_ = true;
+  } else if (!open_frames(error)) {
+    return false;
+  }
+  if (!open_poses(error)) return false;
   mapper_ = std::make_unique<Mapper>(map_config_, camera_);
   features_ = std::make_unique<FeatureMap>(map_config_, camera_.world_z_up);
   features_->set_camera(camera_);
@@ -214,8 +226,9 @@ std::string VehicleDaemon::describe() const {
   out.precision(2);
   out << std::fixed;
   out << "zonemap: frames from "
-      << (config_.frames == VehicleConfig::FrameSourceKind::kReplay ? config_.sequence_dir
-                                                                    : config_.v4l2_device)
+      << (external_frames_ ? std::string("the program's own source")
+          : config_.frames == VehicleConfig::FrameSourceKind::kReplay ? config_.sequence_dir
+                                                                      : config_.v4l2_device)
       << "\nzonemap: poses from "
       << (live_poses_ ? live_poses_->name()
                       : (replay_poses_ == &log_poses_ ? config_.pose_log_path.c_str()

@@ -30,6 +30,10 @@ class VehicleDaemon : private runtime::MappingHooks {
   // Loads, checks and reserves everything; opens every source and sink. False
   // with a message naming file (and line) or device when something is unusable.
   bool open(const VehicleConfig& config, std::string* error);
+  // The same with frames from `frames` (its camera) instead of frames.source: a
+  // simulated camera on a desk (tools/sitl), a source of a test.
+  bool open(const VehicleConfig& config, std::unique_ptr<hal::FrameSource> frames,
+            std::string* error);
   // A start-up report: sources, sinks, memory by component.
   std::string describe() const;
   // Runs until the frames end or stop() (any thread, e.g. a signal handler's flag).
@@ -60,6 +64,7 @@ class VehicleDaemon : private runtime::MappingHooks {
   replay::ReplaySequence sequence_;
   std::unique_ptr<hal::FrameSource> frames_;
   const v4l2::V4l2FrameSource* v4l2_ = nullptr;  // when frames_ is the camera
+  bool external_frames_ = false;                 // frames_ given to open()
   std::unique_ptr<hal::PoseSource> live_poses_;
   PoseTrack log_poses_{0.1, 0.02};
   const PoseTrack* replay_poses_ = nullptr;

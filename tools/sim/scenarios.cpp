@@ -24,6 +24,35 @@ std::vector<TimedPose> straight(const Eigen::Vector3d& a, const Eigen::Vector3d&
   return out;
 }
 
+// An 800 m route flown out and back at 10-20 m altitude over huts and trees
+// standing 8-30 m either side of the track every 40-60 m: every zone is left
+// behind and comes back, every object is seen from both sides.
+void route_scene(std::uint64_t seed, double rate, Scenario* s) {
+  s->description = "an 800 m route out and back over huts and trees";
+  s->config = "config/outdoor-0.5m.yaml";
+  Rng rng(seed * 7919 + 11);
+  const double altitude = 10.0 + 10.0 * rng.uniform();
+  int huts = 0, trees = 0;
+  for (double x = 60.0; x < 780.0; x += 40.0 + 20.0 * rng.uniform()) {
+    const double side = rng.uniform() < 0.5 ? -1.0 : 1.0;
+    const double y = side * (8.0 + 22.0 * rng.uniform());
+    if (rng.uniform() < 0.5) {
+      const double w = 3.0 + 2.0 * rng.uniform(), h = 3.0 + 1.5 * rng.uniform();
+      s->scene.boxes.push_back({"hut_" + std::to_string(++huts), Eigen::Vector3d(x, y - w / 2, 0.0),
+                                Eigen::Vector3d(x + w, y + w / 2, h)});
+    } else {
+      s->scene.cylinders.push_back({"tree_" + std::to_string(++trees), Eigen::Vector2d(x, y),
+                                    1.0 + rng.uniform(), 0.0, 6.0 + 5.0 * rng.uniform()});
+    }
+  }
+  s->trajectory = straight({0, 0, altitude}, {800, 0, altitude}, 8.0, 15 * kDeg, rate);
+  const double t_turn = s->trajectory.back().time_s + 1.0 / rate;
+  for (TimedPose p : straight({800, 0, altitude}, {0, 0, altitude}, 8.0, 15 * kDeg, rate)) {
+    p.time_s += t_turn;
+    s->trajectory.push_back(p);
+  }
+}
+
 // Terrain rising (or falling) 8-14% from x = 30 m on, with two poles, a hut and a
 // wall standing on it, each set into the slope where it stands.
 void terrain_scene(bool rises, std::uint64_t seed, Scenario* s) {
@@ -106,7 +135,8 @@ std::vector<std::string> scenario_names() {
           "posts-staggered", "out-and-back", "treeline-dense", "hedge",
           "hedge-beside",    "posts-high",   "crossing-car",   "parked-car",
           "terrain-rise",    "terrain-fall", "white-wall",     "white-wall-beside",
-          "white-tower",     "white-van",    "field-grazing"};
+          "white-tower",     "white-van",    "field-grazing",  "route-out-and-back",
+          "sitl-course"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -285,6 +315,20 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
       p.time_s += t_turn;
       s->trajectory.push_back(p);
     }
+  } else if (name == "sitl-course") {
+    // The closed-loop course (tools/sitl-flight): from the autopilot's home 60 m
+    // north at 10 m altitude, two posts 20 m out (one 1.5 m west of the track, one
+    // 4 m east) and a wall across the track 40 m out, all taller than the flight.
+    // x north, y west, z up: the autopilot's NED turned about north.
+    s->description = "the closed-loop course: two posts and a wall between A and B";
+    s->config = "config/outdoor-0.5m.yaml";
+    s->scene.cylinders.push_back({"post_west", Eigen::Vector2d(20.0, 1.5), 0.3, 0.0, 16.0});
+    s->scene.cylinders.push_back({"post_east", Eigen::Vector2d(20.0, -4.0), 0.3, 0.0, 16.0});
+    s->scene.boxes.push_back(
+        {"wall", Eigen::Vector3d(40.0, -6.0, 0.0), Eigen::Vector3d(41.0, 6.0, 20.0)});
+    s->trajectory = straight({0, 0, 10.0}, {60, 0, 10.0}, 3.0, 10 * kDeg, rate);
+  } else if (name == "route-out-and-back") {
+    route_scene(options.seed, rate, s);
   } else if (name.rfind("white-", 0) == 0 && (name == "white-wall" || name == "white-wall-beside" ||
                                               name == "white-tower" || name == "white-van")) {
     white_scene(name, rate, s);

@@ -374,6 +374,7 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
     if (f->in_use && f->stale) {
       if (f->prior) ++counters_.priors_removed;
+      ++removal_cause(zone, *f);
       remove(f);
       ++counters_.features_removed;
     }
@@ -420,6 +421,29 @@ void FeatureMap::for_each_zone_piece(const Eigen::Vector3d& min_m, const Eigen::
                           std::min(hi.z, o.z + dims_[2] - 1)};
         fn(key, a, b);
       }
+}
+
+std::int64_t& FeatureMap::removal_cause(const ZoneSnapshot& zone, const Feature& f) {
+  const CellIndex o = zone.origin();
+  std::int64_t occupied = 0;
+  // Bounded by the feature's box, which lies inside the zone.
+  for (int z = f.min.z; z <= f.max.z; ++z)
+    for (int y = f.min.y; y <= f.max.y; ++y)
+      for (int x = f.min.x; x <= f.max.x; ++x) {
+        if (feature_contains(f, {x, y, z}) && zone.occupied(zone.index(x - o.x, y - o.y, z - o.z))) {
+          ++occupied;
+        }
+      }
+  if (occupied * 10 <= f.cells) {
+    return in_view(f.min, f.max) ? counters_.removed_seen_free : counters_.removed_unseen;
+  }
+  for (const Feature* g = features_.get(); g != features_.get() + capacity_; ++g) {
+    if (g->in_use && !g->stale && g->kind == FeatureKind::kObstacle && g->zone == f.zone &&
+        overlap_volume(g->min, g->max, f.min, f.max) > 0) {
+      return counters_.removed_joined;
+    }
+  }
+  return counters_.removed_other;
 }
 
 bool FeatureMap::add_prior(const Eigen::Vector3d& min_m, const Eigen::Vector3d& max_m) {

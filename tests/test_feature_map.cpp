@@ -629,6 +629,41 @@ TEST(FeatureMerge, APostInTwoPartsOneAboveTheOtherIsOneBox) {
 
 // --- store policy ---------------------------------------------------------------
 
+// A feature the extraction does not find again goes, and its counter says why:
+// its cells seen free, its cells now part of another obstacle, or its cells
+// still occupied but no obstacle's (here: too few to be one).
+TEST(FeatureStore, EveryRemovalIsCountedByWhatTheGridHoldsWhereItStood) {
+  const std::array<int, 3> dims = {12, 12, 8};
+  MapConfig config = feature_config(dims, false);
+  config.features.min_cells = 3;
+  FeatureMap map(config, true);
+  TestZone zone(dims, {0, 0, 0});
+  for (int z = 0; z < 4; ++z) zone.set(1, 1, z);  // a post of 4 cells
+  for (int z = 0; z < 4; ++z) {                   // two more, two cells apart
+    zone.set(5, 5, z);
+    zone.set(8, 5, z);
+  }
+  for (int z = 0; z < 4; ++z) zone.set(10, 10, z);  // a fourth post
+  map.extract(zone.view);
+  ASSERT_EQ(map.count(FeatureKind::kObstacle), 4u);
+
+  for (int z = 0; z < 4; ++z) zone.set(1, 1, z, 0);  // seen free
+  for (int z = 0; z < 4; ++z) {                      // the gap filled: one wall of 16 cells
+    zone.set(6, 5, z);
+    zone.set(7, 5, z);
+  }
+  zone.set(10, 10, 2, 0);  // two of its cells left: too small for an obstacle
+  zone.set(10, 10, 3, 0);
+  map.extract(zone.view);
+  const FeatureCounters& c = map.counters();
+  EXPECT_EQ(c.removed_seen_free, 1);
+  EXPECT_EQ(c.removed_joined, 1);
+  EXPECT_EQ(c.removed_other, 1);
+  EXPECT_EQ(c.removed_unseen, 0);
+  EXPECT_EQ(c.features_removed, 3);
+  EXPECT_EQ(map.count(FeatureKind::kObstacle), 1u);
+}
+
 TEST(FeatureStore, FullStoreKeepsTheMostRelevantAndSaysSo) {
   const std::array<int, 3> dims = {20, 20, 6};
   MapConfig config = feature_config(dims, false);

@@ -65,6 +65,10 @@ bool write_stats_json(const std::string& path, const RunStats& s, std::string* e
       << ", \"added\": " << s.feature_counters.features_added
       << ", \"updated\": " << s.feature_counters.features_updated
       << ", \"removed\": " << s.feature_counters.features_removed
+      << ", \"removed_seen_free\": " << s.feature_counters.removed_seen_free
+      << ", \"removed_unseen\": " << s.feature_counters.removed_unseen
+      << ", \"removed_joined\": " << s.feature_counters.removed_joined
+      << ", \"removed_other\": " << s.feature_counters.removed_other
       << ", \"evicted\": " << s.feature_counters.features_evicted
       << ", \"dropped\": " << s.feature_counters.features_dropped
       << ", \"objects_too_small\": " << s.feature_counters.objects_too_small

@@ -81,7 +81,11 @@ struct FeatureCounters {
   std::int64_t extractions = 0;
   std::int64_t features_added = 0;
   std::int64_t features_updated = 0;
-  std::int64_t features_removed = 0;        // gone from the grid on re-extraction
+  std::int64_t features_removed = 0;        // gone from the grid on re-extraction, by cause:
+  std::int64_t removed_seen_free = 0;       //   its cells free, part of it in view
+  std::int64_t removed_unseen = 0;          //   its cells free, none of it in view
+  std::int64_t removed_joined = 0;          //   its cells now in another obstacle of the zone
+  std::int64_t removed_other = 0;           //   its cells occupied but no obstacle's (ground, trimmed, too small)
   std::int64_t features_evicted = 0;        // store full: a less relevant feature made room
   std::int64_t features_dropped = 0;        // store full: the new feature was the least relevant
   std::int64_t objects_too_small = 0;       // fewer than min_cells: noise
@@ -218,6 +222,9 @@ class FeatureMap : public ZoneObserver {
               std::int32_t cells, bool measured);
   bool measured(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count) const;
   bool within_ground_around(const CellIndex& lo, const CellIndex& hi, int top) const;
+  // Why a feature the extraction did not find again goes: its counter, by what the
+  // snapshot holds in its footprint.
+  std::int64_t& removal_cause(const ZoneSnapshot& zone, const Feature& f);
   double relevance(const Feature& f) const;
   // Whether part of the box of world cells [min, max] is in the camera's view:
   // one of its corners, edge middles, face centres or centre projects into the

@@ -143,6 +143,8 @@ async function fly(run) {
     return ok();
   };
   const result = { run, margin_m: OA_MARGIN_MAX_M };
+  let homeAt = null;
+  let legFlown = [];
   try {
     if (!await until(() => said(/using GPS/i), 150)) throw new Error("ArduPilot's EKF never used GPS");
     streams();
@@ -176,6 +178,7 @@ async function fly(run) {
     // The mission: home, take-off to 10 m, B, land there.
     if (!await until(() => latest.GLOBAL_POSITION_INT, 20)) throw new Error('no GLOBAL_POSITION_INT');
     const home = latest.GLOBAL_POSITION_INT;
+    homeAt = home;
     const mPerDegLat = 111320;
     const items = [
       { command: 16, x: home.lat, y: home.lon, z: 0 },
@@ -220,6 +223,7 @@ async function fly(run) {
       Math.abs(latest.LOCAL_POSITION_NED.y) < 3;
     result.reached_b = await until(atB, 120);
     const leg = track.slice(flown);
+    legFlown = leg;
     result.closest_m = {};
     for (const o of obstacles) {
       result.closest_m[o.name] = Number(Math.min(...leg.map((p) => distanceTo(o, p.n, p.e))).toFixed(2));
@@ -239,10 +243,100 @@ async function fly(run) {
     camera.kill('SIGTERM');
     await new Promise((resolve) => camera.on('exit', resolve));
   }
+  if (run === 'with' && result.closest_m && homeAt) {
+    const mPerDegLon = 111320 * Math.cos((homeAt.lat / 1e7) * Math.PI / 180);
+    const oaNed = oaDb.map((o) => ({ t: o.t, n: (o.lat - homeAt.lat / 1e7) * 111320,
+      e: (o.lon - homeAt.lon / 1e7) * mPerDegLon, d: -ALTITUDE_M }));
+    try {
+      await addAutopilotView(runDir, result, oaNed, legFlown);
+    } catch (e) {
+      result.report_error = e.message;
+    }
+  }
   stop();
   tcp.destroy();
   router.close();
   return result;
+}
+
+// ---- ArduPilot's view beside zonemap's: into run.mcap (topics /ardupilot/objects: its
+// object database as it reported it, /ardupilot/track: the leg flown; SceneUpdate in
+// the recording's NED "world", times on the same CLOCK_MONOTONIC) and report.html.
+const seconds = (t) => ({ sec: Math.floor(t), nsec: Math.round((t - Math.floor(t)) * 1e9) % 1e9 });
+function entity(t, id, prims) {
+  return { timestamp: seconds(t), frame_id: 'world', id, lifetime: { sec: 0, nsec: 0 }, frame_locked: false,
+    metadata: [], arrows: [], cubes: [], spheres: [], cylinders: [], lines: [], triangles: [], texts: [],
+    models: [], ...prims };
+}
+const at = (p) => ({ position: { x: p.n, y: p.e, z: p.d }, orientation: { x: 0, y: 0, z: 0, w: 1 } });
+
+async function addAutopilotView(runDir, result, oaNed, leg) {
+  const mcapPath = path.join(runDir, 'zonemap', 'run.mcap');
+  if (!fs.existsSync(mcapPath) || leg.length === 0) return;
+  const { McapIndexedReader, McapWriter } = await import('@mcap/core');
+  const fzstd = await import('fzstd');
+  const bytes = fs.readFileSync(mcapPath);
+  const reader = await McapIndexedReader.Initialize({
+    readable: { size: async () => BigInt(bytes.length),
+      read: async (offset, length) => bytes.subarray(Number(offset), Number(offset + length)) },
+    decompressHandlers: { zstd: (data, size) => fzstd.decompress(data, new Uint8Array(Number(size))) },
+  });
+  const parts = [];
+  let written = 0n;
+  const writer = new McapWriter({ writable: { position: () => written,
+    write: async (b) => { parts.push(Buffer.from(b)); written += BigInt(b.length); } } });
+  await writer.start({ profile: reader.header.profile, library: 'zonemap tests/js/sitl_flight.mjs' });
+  const schemas = new Map();
+  let scene = null;
+  for (const [id, sc] of reader.schemasById) {
+    schemas.set(id, await writer.registerSchema({ name: sc.name, encoding: sc.encoding, data: sc.data }));
+    if (sc.name === 'foxglove.SceneUpdate') scene = schemas.get(id);
+  }
+  const channels = new Map();
+  for (const [id, c] of reader.channelsById) {
+    channels.set(id, await writer.registerChannel({ schemaId: schemas.get(c.schemaId) ?? 0, topic: c.topic,
+      messageEncoding: c.messageEncoding, metadata: c.metadata }));
+  }
+  for await (const m of reader.readMessages()) {
+    await writer.addMessage({ channelId: channels.get(m.channelId), sequence: m.sequence, logTime: m.logTime,
+      publishTime: m.publishTime, data: m.data });
+  }
+  const json = (o) => new TextEncoder().encode(JSON.stringify(o));
+  const objects = await writer.registerChannel({ schemaId: scene, topic: '/ardupilot/objects',
+    messageEncoding: 'json', metadata: new Map() });
+  const trackChannel = await writer.registerChannel({ schemaId: scene, topic: '/ardupilot/track',
+    messageEncoding: 'json', metadata: new Map() });
+  let sequence = 0;
+  const addScene = async (channelId, t, entities) => {
+    const time = BigInt(Math.round(t * 1e9));
+    await writer.addMessage({ channelId, sequence: sequence++, logTime: time, publishTime: time,
+      data: json({ deletions: [], entities }) });
+  };
+  // Each half second, the items ArduPilot reported in the second before (orange).
+  for (let t = leg[0].t; t <= leg.at(-1).t; t += 0.5) {
+    const recent = oaNed.filter((o) => o.t > t - 1 && o.t <= t);
+    await addScene(objects, t, [entity(t, 'oa-db', { spheres: recent.map((o) => ({ pose: at(o),
+      size: { x: 0.8, y: 0.8, z: 0.8 }, color: { r: 1, g: 0.5, b: 0, a: 0.9 } })) })]);
+  }
+  const end = leg.at(-1).t;
+  await addScene(trackChannel, end, [entity(end, 'track', { lines: [{ type: 0, pose: at({ n: 0, e: 0, d: 0 }),
+    thickness: 0.2, scale_invariant: false, points: leg.map((p) => ({ x: p.n, y: p.e, z: p.d })),
+    color: { r: 0.2, g: 0.6, b: 1, a: 1 }, colors: [], indices: [] }] })]);
+  await writer.end();
+  fs.writeFileSync(mcapPath, Buffer.concat(parts));
+  // report.html: the run's figures beside zonemap's page.
+  const reportPath = path.join(runDir, 'zonemap', 'report.html');
+  if (fs.existsSync(reportPath)) {
+    const rows = Object.entries(result.closest_m).map(([name, m]) =>
+      `<tr><td>${name}</td><td>${m.toFixed(2)}</td><td>${m >= result.margin_m ? 'yes' : 'NO'}</td></tr>`).join('');
+    const section = `<section id="autopilot"><h2>ArduPilot in the loop (${result.run})</h2>` +
+      `<p>OA_MARGIN_MAX ${result.margin_m} m; B reached: ${result.reached_b}; ${leg.length} track points ` +
+      `over ${result.seconds} s, at most ${result.max_east_m} m off the track; ${oaNed.length} object-database ` +
+      'items reported (in run.mcap: /ardupilot/objects, /ardupilot/track).</p>' +
+      `<table><tr><th>obstacle</th><th>closest approach m</th><th>past the margin</th></tr>${rows}</table></section>`;
+    const html = fs.readFileSync(reportPath, 'utf8');
+    fs.writeFileSync(reportPath, html.replace('</body>', `${section}</body>`));
+  }
 }
 
 let failed = false;

@@ -40,7 +40,8 @@ while IFS= read -r line; do
   [ -n "$inc" ] || continue
   case "$file" in
     include/zonemap/*|src/*)
-      case "$inc" in zonemap/*|simd_u16.hpp) ;; *) check "$file" "$inc" "the core includes only the core" ;; esac ;;
+      # The core's public headers, or its internal ones beside the sources in src/.
+      case "$inc" in zonemap/*) ;; *) [ -f "src/$inc" ] || check "$file" "$inc" "the core includes only the core" ;; esac ;;
     runtime/*)
       case "$inc" in tools/*|onboard/*) check "$file" "$inc" "the runtime never includes a program" ;; esac
       case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)

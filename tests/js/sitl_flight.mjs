@@ -329,11 +329,24 @@ async function addAutopilotView(runDir, result, oaNed, leg) {
   if (fs.existsSync(reportPath)) {
     const rows = Object.entries(result.closest_m).map(([name, m]) =>
       `<tr><td>${name}</td><td>${m.toFixed(2)}</td><td>${m >= result.margin_m ? 'yes' : 'NO'}</td></tr>`).join('');
+    // What ArduPilot held: its database items by the obstacle they stood on (within 2 m).
+    const on = Object.fromEntries(obstacles.map((o) => [o.name, 0]));
+    let onNothing = 0;
+    for (const item of oaNed) {
+      const near = obstacles.find((o) => distanceTo(o, item.n, item.e) <= 2);
+      if (near) on[near.name] += 1;
+      else onNothing += 1;
+    }
+    result.oa_db_on = { ...on, nothing: onNothing };
+    const held = Object.entries(on).map(([name, k]) => `<tr><td>${name}</td><td>${k}</td></tr>`).join('') +
+      `<tr><td>(on no obstacle)</td><td>${onNothing}</td></tr>`;
     const section = `<section id="autopilot"><h2>ArduPilot in the loop (${result.run})</h2>` +
       `<p>OA_MARGIN_MAX ${result.margin_m} m; B reached: ${result.reached_b}; ${leg.length} track points ` +
       `over ${result.seconds} s, at most ${result.max_east_m} m off the track; ${oaNed.length} object-database ` +
       'items reported (in run.mcap: /ardupilot/objects, /ardupilot/track).</p>' +
-      `<table><tr><th>obstacle</th><th>closest approach m</th><th>past the margin</th></tr>${rows}</table></section>`;
+      `<table><tr><th>obstacle</th><th>closest approach m</th><th>past the margin</th></tr>${rows}</table>` +
+      `<h3>Its object database (items within 2 m of each obstacle)</h3><table><tr><th>obstacle</th>` +
+      `<th>items</th></tr>${held}</table></section>`;
     const html = fs.readFileSync(reportPath, 'utf8');
     fs.writeFileSync(reportPath, html.replace('</body>', `${section}</body>`));
   }

@@ -138,35 +138,78 @@ void FeatureMap::extract(const ZoneSnapshot& zone) {
   for (Feature* f = features_.get(); f != features_.get() + capacity_; ++f) {
     if (f->in_use && f->stale) {
       if (f->prior) ++counters_.priors_removed;
-      ++removal_cause(zone, *f);
+      record_removal(zone, *f);
       remove(f);
       ++counters_.features_removed;
     }
   }
 }
 
-std::int64_t& FeatureMap::removal_cause(const ZoneSnapshot& zone, const Feature& f) {
+RemovalCause FeatureMap::removal_cause(const ZoneSnapshot& zone, const Feature& f,
+                                       std::int32_t* occupied) {
   const CellIndex o = zone.origin();
-  std::int64_t occupied = 0;
+  *occupied = 0;
   // Bounded by the feature's box, which lies inside the zone.
   for (int z = f.min.z; z <= f.max.z; ++z)
     for (int y = f.min.y; y <= f.max.y; ++y)
       for (int x = f.min.x; x <= f.max.x; ++x) {
         if (feature_contains(f, {x, y, z}) &&
             zone.occupied(zone.index(x - o.x, y - o.y, z - o.z))) {
-          ++occupied;
+          ++*occupied;
         }
       }
-  if (occupied * 10 <= f.cells) {
-    return in_view(f.min, f.max) ? counters_.removed_seen_free : counters_.removed_unseen;
+  if (*occupied * 10 <= f.cells) {
+    return in_view(f.min, f.max) ? RemovalCause::kSeenFree : RemovalCause::kUnseen;
   }
   for (const Feature* g = features_.get(); g != features_.get() + capacity_; ++g) {
     if (g->in_use && !g->stale && g->kind == FeatureKind::kObstacle && g->zone == f.zone &&
         overlap_volume(g->min, g->max, f.min, f.max) > 0) {
-      return counters_.removed_joined;
+      return RemovalCause::kJoined;
     }
   }
-  return counters_.removed_other;
+  return RemovalCause::kOther;
+}
+
+void FeatureMap::record_removal(const ZoneSnapshot& zone, const Feature& f) {
+  FeatureRemoval r;
+  r.cause = removal_cause(zone, f, &r.occupied);
+  switch (r.cause) {
+    case RemovalCause::kSeenFree:
+      ++counters_.removed_seen_free;
+      break;
+    case RemovalCause::kUnseen:
+      ++counters_.removed_unseen;
+      break;
+    case RemovalCause::kJoined:
+      ++counters_.removed_joined;
+      break;
+    case RemovalCause::kOther:
+      ++counters_.removed_other;
+      break;
+  }
+  r.id = f.id;
+  r.kind = f.kind;
+  r.prior = f.prior;
+  r.min = f.min;
+  r.max = f.max;
+  r.cells = f.cells;
+  r.time_s = time_s_;
+  removals_[static_cast<std::size_t>(removals_recorded_ % kRemovalsKept)] = r;
+  ++removals_recorded_;
+}
+
+const char* to_string(RemovalCause cause) {
+  switch (cause) {
+    case RemovalCause::kSeenFree:
+      return "its cells seen free in view";
+    case RemovalCause::kUnseen:
+      return "its cells free, not in view";
+    case RemovalCause::kJoined:
+      return "its cells now in another obstacle";
+    case RemovalCause::kOther:
+      return "its cells occupied but no obstacle's (ground, trimmed, too few)";
+  }
+  return "?";
 }
 
 void FeatureMap::add_object(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count,

@@ -662,6 +662,23 @@ TEST(FeatureStore, EveryRemovalIsCountedByWhatTheGridHoldsWhereItStood) {
   EXPECT_EQ(c.removed_unseen, 0);
   EXPECT_EQ(c.features_removed, 3);
   EXPECT_EQ(map.count(FeatureKind::kObstacle), 1u);
+  // Each removal recorded with its evidence, for the edges to log.
+  ASSERT_EQ(map.removals_recorded(), 3);
+  int seen_free = 0;
+  for (std::int64_t n = 0; n < 3; ++n) {
+    const FeatureRemoval& r = map.removal(n);
+    EXPECT_GT(r.id, 0u);
+    if (r.cause == RemovalCause::kSeenFree) {
+      ++seen_free;
+      EXPECT_EQ(r.min, (CellIndex{1, 1, 0}));
+      EXPECT_EQ(r.occupied, 0);
+      EXPECT_EQ(r.cells, 4);
+    }
+    if (r.cause == RemovalCause::kOther) {
+      EXPECT_EQ(r.occupied, 2);
+    }
+  }
+  EXPECT_EQ(seen_free, 1);
 }
 
 TEST(FeatureStore, FullStoreKeepsTheMostRelevantAndSaysSo) {

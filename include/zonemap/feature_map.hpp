@@ -81,11 +81,12 @@ struct FeatureCounters {
   std::int64_t extractions = 0;
   std::int64_t features_added = 0;
   std::int64_t features_updated = 0;
-  std::int64_t features_removed = 0;        // gone from the grid on re-extraction, by cause:
-  std::int64_t removed_seen_free = 0;       //   its cells free, part of it in view
-  std::int64_t removed_unseen = 0;          //   its cells free, none of it in view
-  std::int64_t removed_joined = 0;          //   its cells now in another obstacle of the zone
-  std::int64_t removed_other = 0;           //   its cells occupied but no obstacle's (ground, trimmed, too small)
+  std::int64_t features_removed = 0;   // gone from the grid on re-extraction, by cause:
+  std::int64_t removed_seen_free = 0;  //   its cells free, part of it in view
+  std::int64_t removed_unseen = 0;     //   its cells free, none of it in view
+  std::int64_t removed_joined = 0;     //   its cells now in another obstacle of the zone
+  std::int64_t removed_other =
+      0;  //   its cells occupied but no obstacle's (ground, trimmed, too small)
   std::int64_t features_evicted = 0;        // store full: a less relevant feature made room
   std::int64_t features_dropped = 0;        // store full: the new feature was the least relevant
   std::int64_t objects_too_small = 0;       // fewer than min_cells: noise
@@ -102,6 +103,21 @@ struct FeatureCounters {
   std::int64_t shared_updates = 0, shared_added = 0, shared_kept = 0, shared_removed = 0,
                shared_dropped = 0;
 };
+
+// One feature the extraction did not find again and removed, with the evidence:
+// what the grid held in its footprint when it went.
+enum class RemovalCause : std::uint8_t { kSeenFree, kUnseen, kJoined, kOther };
+struct FeatureRemoval {
+  std::uint32_t id = 0;
+  FeatureKind kind = FeatureKind::kObstacle;
+  RemovalCause cause = RemovalCause::kSeenFree;
+  bool prior = false;
+  CellIndex min, max;         // world cells, inclusive
+  std::int32_t cells = 0;     // it was made of
+  std::int32_t occupied = 0;  // of its footprint's cells still occupied when it went
+  double time_s = 0.0;        // the extraction's
+};
+const char* to_string(RemovalCause cause);
 
 class FeatureMap : public ZoneObserver {
  public:
@@ -202,6 +218,13 @@ class FeatureMap : public ZoneObserver {
   std::size_t count() const { return in_use_; }
   std::size_t count(FeatureKind kind) const;
   const FeatureCounters& counters() const { return counters_; }
+  // The last kRemovalsKept removals, for an edge to log: removal n (0-based, of
+  // removals_recorded()) is removal(n) while n + kRemovalsKept > removals_recorded().
+  static constexpr std::size_t kRemovalsKept = 32;
+  std::int64_t removals_recorded() const { return removals_recorded_; }
+  const FeatureRemoval& removal(std::int64_t n) const {
+    return removals_[static_cast<std::size_t>(n) % kRemovalsKept];
+  }
   std::size_t reserved_bytes() const;
   const QuadtreePool& shapes() const { return shapes_; }
   double cell_size_m() const { return cell_size_m_; }
@@ -222,9 +245,10 @@ class FeatureMap : public ZoneObserver {
               std::int32_t cells, bool measured);
   bool measured(const ZoneSnapshot& zone, const std::uint32_t* cells, std::size_t count) const;
   bool within_ground_around(const CellIndex& lo, const CellIndex& hi, int top) const;
-  // Why a feature the extraction did not find again goes: its counter, by what the
-  // snapshot holds in its footprint.
-  std::int64_t& removal_cause(const ZoneSnapshot& zone, const Feature& f);
+  // Why a feature the extraction does not find again goes, by what the snapshot
+  // holds in its footprint: counted, and recorded for the edges.
+  RemovalCause removal_cause(const ZoneSnapshot& zone, const Feature& f, std::int32_t* occupied);
+  void record_removal(const ZoneSnapshot& zone, const Feature& f);
   double relevance(const Feature& f) const;
   // Whether part of the box of world cells [min, max] is in the camera's view:
   // one of its corners, edge middles, face centres or centre projects into the
@@ -314,6 +338,8 @@ class FeatureMap : public ZoneObserver {
   std::array<int, 3> dims_;
   MapConfig map_config_;          // the zones' layout, for cutting priors at zone faces
   std::int64_t priors_live_ = 0;  // prior features in the store, not confirmed yet
+  std::array<FeatureRemoval, kRemovalsKept> removals_{};
+  std::int64_t removals_recorded_ = 0;
   FusedCell threshold_;
   FusedCell reintegration_value_;
   int ground_thickness_cells_;

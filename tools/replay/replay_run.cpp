@@ -512,6 +512,35 @@ void ReplayRun::log_feature_store_events() {
          "feature store full: new feature dropped");
   report(now.shapes_truncated, &logged_counters_.shapes_truncated,
          "quadtree pool full: box kept without shape");
+  log_removals();
+}
+
+// Every feature removal with its id and evidence (the store keeps the last few:
+// the single-threaded run drains them after each extraction).
+void ReplayRun::log_removals() {
+  const std::int64_t recorded = features_->removals_recorded();
+  const auto kept = static_cast<std::int64_t>(FeatureMap::kRemovalsKept);
+  if (recorded - removals_logged_ > kept) {
+    if (!options_.quiet) {
+      std::fprintf(stderr,
+                   "zonemap-replay: %lld feature removals not listed (counted in stats.json)\n",
+                   static_cast<long long>(recorded - removals_logged_ - kept));
+    }
+    removals_logged_ = recorded - kept;
+  }
+  for (; removals_logged_ < recorded; ++removals_logged_) {
+    if (options_.quiet) continue;
+    const FeatureRemoval& r = features_->removal(removals_logged_);
+    const double c = config_.cell_size_m;
+    std::fprintf(stderr,
+                 "%szonemap-replay: feature %u (%s%s, %d cells, x %.1f..%.1f y %.1f..%.1f z "
+                 "%.1f..%.1f m) removed at %.2f s: %s (%d of its cells occupied)\n",
+                 progress_shown_ ? "\n" : "", r.id,
+                 r.kind == FeatureKind::kGround ? "ground" : "obstacle", r.prior ? ", prior" : "",
+                 r.cells, r.min.x * c, (r.max.x + 1) * c, r.min.y * c, (r.max.y + 1) * c,
+                 r.min.z * c, (r.max.z + 1) * c, r.time_s, to_string(r.cause), r.occupied);
+    progress_shown_ = false;
+  }
 }
 
 std::vector<ObstacleBox> ReplayRun::boxes(bool include_ground) {

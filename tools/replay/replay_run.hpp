@@ -81,6 +81,7 @@ class ReplayRun : private runtime::MappingHooks {
 
  private:
   void log_feature_store_events();
+  void log_removals();
   void warn_if_ground_out_of_reach() const;
   void extract_zone(int live_index);
   void after_frame(std::size_t frame_index, const Eigen::Isometry3d& pose,
@@ -117,6 +118,7 @@ class ReplayRun : private runtime::MappingHooks {
   std::vector<std::size_t> mapped_frames_;
   bool finished_ = false;
   FeatureCounters logged_counters_;
+  std::int64_t removals_logged_ = 0;
   bool in_pipeline_ = false;  // on the mapping thread: count, do not print
   ExtractionSchedule schedule_{1};
   runtime::PipelineStats pipeline_stats_;

@@ -169,6 +169,18 @@ SharedMapsConfig own_config(bool world_z_up) {
   return c;
 }
 
+// This vehicle's receiving side: the decoder and one inbox slot to decode into.
+struct Receiving {
+  SharedMapDecoder decoder;
+  SharedMapInbox inbox{3};
+  SharedMapUpdate* slot = inbox.take_free();
+  explicit Receiving(bool world_z_up) : decoder(own_config(world_z_up)) {}
+  bool take(const std::vector<std::uint8_t>& bytes, std::size_t size) {
+    return decoder.decode(bytes.data(), size, slot, 0.0);
+  }
+  bool take(const std::vector<std::uint8_t>& bytes) { return take(bytes, bytes.size()); }
+};
+
 // The sender's origin 40 m north, 20 m east and 2 m above ours: its post at
 // (10, 5) north-west-up is at (50, -15) in ours, 2 m higher; in NED the same.
 TEST(SharedMapMessage, ABoxMovesFromTheSendersFrameToOursThroughTheOrigins) {
@@ -180,11 +192,9 @@ TEST(SharedMapMessage, ABoxMovesFromTheSendersFrameToOursThroughTheOrigins) {
       s.world_z_up = sender_z_up;
       // North 10..11, west 5..6 (east -6..-5), up 0..8.
       s.boxes = {sender_z_up ? box({10, 5, 0}, {11, 6, 8}) : box({10, -6, -8}, {11, -5, 0})};
-      SharedMapDecoder decoder(own_config(own_z_up));
-      SharedMapInbox inbox(3);
-      SharedMapUpdate* u = inbox.take_free();
-      const auto bytes = encode(s);
-      ASSERT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+      Receiving here(own_z_up);
+      const SharedMapUpdate* u = here.slot;
+      ASSERT_TRUE(here.take(encode(s)));
       ASSERT_EQ(u->count, 1u);
       const Eigen::Vector3d lo =
           own_z_up ? Eigen::Vector3d(50, -15, 2) : Eigen::Vector3d(50, 14, -10);
@@ -210,13 +220,11 @@ TEST(SharedMapMessage, OnlyWhatTheSenderMeasuredIsTakenAndABadBoxCostsOnlyItself
              box({2, 2, 0}, {3, 3, 2}),
              box({4, 4, 0}, {5, 5, 2}),
              box({6, 6, 0}, {7, 7, 2})};  // the fourth measured: over max_boxes 3
-  SharedMapDecoder decoder(own_config(true));
-  SharedMapInbox inbox(3);
-  SharedMapUpdate* u = inbox.take_free();
-  const auto bytes = encode(s);
-  ASSERT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  Receiving here(true);
+  const SharedMapUpdate* u = here.slot;
+  ASSERT_TRUE(here.take(encode(s)));
   EXPECT_EQ(u->count, 3u);
-  const lcm_link::SharedMapCounters& c = decoder.counters();
+  const lcm_link::SharedMapCounters& c = here.decoder.counters();
   EXPECT_EQ(c.boxes_taken, 3);
   EXPECT_EQ(c.boxes_not_measured, 2);
   EXPECT_EQ(c.boxes_rejected, 4);
@@ -227,46 +235,46 @@ TEST(SharedMapMessage, OnlyWhatTheSenderMeasuredIsTakenAndABadBoxCostsOnlyItself
 }
 
 TEST(SharedMapMessage, AMapThatCannotBePlacedIsRefusedWhole) {
-  SharedMapDecoder decoder(own_config(true));
-  SharedMapInbox inbox(3);
-  SharedMapUpdate* u = inbox.take_free();
+  Receiving here(true);
+  const SharedMapDecoder& decoder = here.decoder;
+  const SharedMapUpdate* u = here.slot;
   Sent no_origin;
   no_origin.boxes = {box({0, 0, 0}, {1, 1, 2})};
   auto bytes = encode(no_origin);
-  EXPECT_FALSE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_FALSE(here.take(bytes));
   EXPECT_EQ(decoder.counters().refused_no_origin, 1);
 
   Sent own = no_origin;
   own.origin = &kOwnOrigin;
   own.vehicle = "heli-1";
   bytes = encode(own);
-  EXPECT_FALSE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_FALSE(here.take(bytes));
   EXPECT_EQ(decoder.counters().refused_own, 1);
 
   Sent good = no_origin;
   good.origin = &kOwnOrigin;
   bytes = encode(good);
   for (const std::size_t cut : {std::size_t{0}, std::size_t{9}, bytes.size() - 1}) {
-    EXPECT_FALSE(decoder.decode(bytes.data(), cut, u, 0.0)) << "truncated to " << cut;
+    EXPECT_FALSE(here.take(bytes, cut)) << "truncated to " << cut;
   }
   std::vector<std::uint8_t> wrong = bytes;
   wrong[0] ^= 0xFF;  // another type's fingerprint
-  EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0));
+  EXPECT_FALSE(here.take(wrong));
   // Counts that lcm-gen's decoder would size its vectors by before checking them:
   // the box count (after 49 bytes) negative or past the message, the name's
   // length (the last 29 bytes: length, "heli-2", flag, origin) zero.
   for (const std::uint8_t first : {std::uint8_t{0xFF}, std::uint8_t{0x7F}}) {
     wrong = bytes;
     wrong[49] = first;
-    EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0)) << int(first);
+    EXPECT_FALSE(here.take(wrong)) << int(first);
   }
   wrong = bytes;
   const std::size_t name = bytes.size() - 1 - 24 - 7 - 4;
   wrong[name + 3] = 0;
-  EXPECT_FALSE(decoder.decode(wrong.data(), wrong.size(), u, 0.0));
+  EXPECT_FALSE(here.take(wrong));
   EXPECT_EQ(decoder.counters().malformed, 7);
   EXPECT_EQ(u->count, 0u);
-  EXPECT_TRUE(decoder.decode(bytes.data(), bytes.size(), u, 0.0));
+  EXPECT_TRUE(here.take(bytes));
   EXPECT_EQ(u->count, 1u);
 }
 

@@ -8,8 +8,11 @@
 
 namespace zonemap {
 
-std::string validate(const MapConfig& c) {
-  std::ostringstream why;
+namespace {
+
+// Each checks its keys in order and writes the first wrong one (a table of
+// keys: one condition and one message a key).
+bool map_and_sensor_wrong(const MapConfig& c, std::ostringstream& why) {
   if (!(c.cell_size_m > 0.0) || !std::isfinite(c.cell_size_m)) {
     why << "map.cell_size_m must be > 0 (got " << c.cell_size_m << ")";
   } else if (c.zone_cells[0] < 2 || c.zone_cells[1] < 2 || c.zone_cells[2] < 2 ||
@@ -33,7 +36,15 @@ std::string validate(const MapConfig& c) {
     why << "sensor.see_through_behind must be in [0, see_through] (or -1: see_through)";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
-  } else if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// Fusion, the sky filter, time and poses.
+bool fusion_and_inputs_wrong(const MapConfig& c, std::ostringstream& why) {
+  if (!(c.full_weight_resolution_cells >= 0.1) || c.full_weight_resolution_cells > 100.0) {
     why << "fusion.full_weight_resolution_cells must be in [0.1, 100]";
   } else if (!(c.min_weight >= 0.05) || c.min_weight > 1.0) {
     why << "fusion.min_weight must be in [0.05, 1]";
@@ -61,8 +72,16 @@ std::string validate(const MapConfig& c) {
     why << "pose.max_gap_s must be > 0 and pose.tolerance_s >= 0";
   } else if (c.depth_scale_override < 0.0 || !std::isfinite(c.depth_scale_override)) {
     why << "camera.depth_scale must be > 0";
-  } else if (!(c.features.occupied_threshold_units > 0.0) ||
-             c.features.occupied_threshold_units >= c.saturation_units) {
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The feature map and the ground.
+bool features_wrong(const MapConfig& c, std::ostringstream& why) {
+  if (!(c.features.occupied_threshold_units > 0.0) ||
+      c.features.occupied_threshold_units >= c.saturation_units) {
     why << "features.occupied_threshold must be in (0, saturation)";
   } else if (c.features.min_cells < 1 || c.features.capacity < 1 ||
              c.features.capacity > 1'000'000 || c.features.quadtree_groups < 1 ||
@@ -92,7 +111,18 @@ std::string validate(const MapConfig& c) {
                c.features.ground_max_thickness_m > kMaxGroundBandCells * c.cell_size_m))) {
     why << "ground.band_percentile must be in [0, 1), ground.max_thickness_m in [thickness_m, "
         << kMaxGroundBandCells << " cells]";
+  } else {
+    return false;
   }
+  return true;
+}
+
+}  // namespace
+
+std::string validate(const MapConfig& c) {
+  std::ostringstream why;
+  // The first wrong key, section by section.
+  if (!map_and_sensor_wrong(c, why) && !fusion_and_inputs_wrong(c, why)) features_wrong(c, why);
   return why.str();
 }
 

@@ -17,12 +17,31 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
     footprints->used = 0;
     footprints->boxes_without_footprint = 0;
   }
+  group_touching_features();
+  std::size_t n = 0;
+  // Roots first write their group; obstacles before ground.
+  for (const FeatureKind kind : {FeatureKind::kObstacle, FeatureKind::kGround}) {
+    if (kind == FeatureKind::kGround && !include_ground) break;
+    for (std::size_t i = 0; i < capacity_ && n < capacity; ++i) {
+      const Feature& root = features_[i];
+      if (!root.in_use || root.kind != kind ||
+          find_root(parent_.get(), static_cast<std::uint32_t>(i)) != i) {
+        continue;
+      }
+      out[n] = box_of_group(i, footprints, n);
+      ++n;
+    }
+  }
+  return n;
+}
+
+// parent_: features of one object cut by zone faces touch across the face. In
+// one zone, obstacles whose x-y boxes mostly overlap are the faces of one object
+// seen from opposite sides (a hut flown out and back), apart once the halo
+// between them is trimmed.
+void FeatureMap::group_touching_features() {
   const int gap = config_.merge_gap_cells;
   for (std::size_t i = 0; i < capacity_; ++i) parent_[i] = static_cast<std::uint32_t>(i);
-  // Features of one object cut by zone faces touch across the face. In one
-  // zone, obstacles whose x-y boxes mostly overlap are the faces of one object
-  // seen from opposite sides (a hut flown out and back), apart once the halo
-  // between them is trimmed.
   for (std::size_t i = 0; i < capacity_; ++i) {
     const Feature& a = features_[i];
     if (!a.in_use) continue;
@@ -44,56 +63,50 @@ std::size_t FeatureMap::merged(ObstacleBox* out, std::size_t capacity, bool incl
       if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);
     }
   }
-  std::size_t n = 0;
-  // Roots first write their group; obstacles before ground.
-  for (const FeatureKind kind : {FeatureKind::kObstacle, FeatureKind::kGround}) {
-    if (kind == FeatureKind::kGround && !include_ground) break;
-    for (std::size_t i = 0; i < capacity_ && n < capacity; ++i) {
-      const Feature& root = features_[i];
-      if (!root.in_use || root.kind != kind ||
-          find_root(parent_.get(), static_cast<std::uint32_t>(i)) != i) {
-        continue;
-      }
-      ObstacleBox box;
-      box.kind = kind;
-      box.id = root.id;
-      box.first_seen_s = root.first_seen_s;
-      box.last_seen_s = root.last_seen_s;
-      box.prior = true;
-      CellIndex lo = root.min;
-      CellIndex hi = root.max;
-      const std::size_t first_rect = footprints != nullptr ? footprints->used : 0;
-      bool footprint_fits = true;
-      for (std::size_t j = i; j < capacity_; ++j) {
-        const Feature& f = features_[j];
-        if (!f.in_use || find_root(parent_.get(), static_cast<std::uint32_t>(j)) != i) continue;
-        if (footprints != nullptr && footprint_fits) {
-          footprint_fits = append_footprint(f, footprints);
-        }
-        lo = {std::min(lo.x, f.min.x), std::min(lo.y, f.min.y), std::min(lo.z, f.min.z)};
-        hi = {std::max(hi.x, f.max.x), std::max(hi.y, f.max.y), std::max(hi.z, f.max.z)};
-        box.id = std::min(box.id, f.id);
-        box.first_seen_s = std::min(box.first_seen_s, f.first_seen_s);
-        box.last_seen_s = std::max(box.last_seen_s, f.last_seen_s);
-        box.cells += f.cells;
-        box.prior &= f.prior;
-        ++box.parts;
-      }
-      box.min = Eigen::Vector3d(lo.x, lo.y, lo.z) * cell_size_m_;
-      box.max = Eigen::Vector3d(hi.x + 1, hi.y + 1, hi.z + 1) * cell_size_m_;
-      if (footprints != nullptr) {
-        footprints->offsets[n] = static_cast<std::uint32_t>(first_rect);
-        footprints->counts[n] =
-            footprint_fits ? static_cast<std::uint32_t>(footprints->used - first_rect) : 0;
-        if (!footprint_fits) {
-          footprints->used = first_rect;  // the space goes to the next box
-          ++footprints->boxes_without_footprint;
-        }
-      }
-      out[n++] = box;
+}
+
+// The box of the group whose root is feature `root_index`, the n-th box out,
+// with its footprint appended when there is room.
+ObstacleBox FeatureMap::box_of_group(std::size_t root_index, FootprintOutput* footprints,
+                                     std::size_t n) {
+  const Feature& root = features_[root_index];
+  ObstacleBox box;
+  box.kind = root.kind;
+  box.id = root.id;
+  box.first_seen_s = root.first_seen_s;
+  box.last_seen_s = root.last_seen_s;
+  box.prior = true;
+  CellIndex lo = root.min;
+  CellIndex hi = root.max;
+  const std::size_t first_rect = footprints != nullptr ? footprints->used : 0;
+  bool footprint_fits = true;
+  for (std::size_t j = root_index; j < capacity_; ++j) {
+    const Feature& f = features_[j];
+    if (!f.in_use || find_root(parent_.get(), static_cast<std::uint32_t>(j)) != root_index) {
+      continue;
+    }
+    if (footprints != nullptr && footprint_fits) footprint_fits = append_footprint(f, footprints);
+    lo = {std::min(lo.x, f.min.x), std::min(lo.y, f.min.y), std::min(lo.z, f.min.z)};
+    hi = {std::max(hi.x, f.max.x), std::max(hi.y, f.max.y), std::max(hi.z, f.max.z)};
+    box.id = std::min(box.id, f.id);
+    box.first_seen_s = std::min(box.first_seen_s, f.first_seen_s);
+    box.last_seen_s = std::max(box.last_seen_s, f.last_seen_s);
+    box.cells += f.cells;
+    box.prior &= f.prior;
+    ++box.parts;
+  }
+  box.min = Eigen::Vector3d(lo.x, lo.y, lo.z) * cell_size_m_;
+  box.max = Eigen::Vector3d(hi.x + 1, hi.y + 1, hi.z + 1) * cell_size_m_;
+  if (footprints != nullptr) {
+    footprints->offsets[n] = static_cast<std::uint32_t>(first_rect);
+    footprints->counts[n] =
+        footprint_fits ? static_cast<std::uint32_t>(footprints->used - first_rect) : 0;
+    if (!footprint_fits) {
+      footprints->used = first_rect;  // the space goes to the next box
+      ++footprints->boxes_without_footprint;
     }
   }
-  return n;
+  return box;
 }
 
 bool FeatureMap::append_footprint(const Feature& f, FootprintOutput* out) const {

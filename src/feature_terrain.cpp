@@ -12,17 +12,25 @@
 namespace zonemap {
 
 void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
-  const int nx = dims_[0];
-  const int ny = dims_[1];
-  const int nz = dims_[2];
-  const std::size_t columns = static_cast<std::size_t>(nx) * ny;
+  const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
   if (!config_.ground_enabled) {
     std::fill_n(terrain_.get(), columns, kNoHeight);
     std::fill_n(ground_top_.get(), columns, kNoHeight);
     return;
   }
-  // Per column: the lowest occupied cell, and whether any cell is known at all.
-  // Summed-area tables of both give the window coverage in O(1).
+  scan_columns(zone);
+  keep_surface_windows();
+  borrow_terrain_where_unseen();
+  compute_ground_top();
+}
+
+// Per column: the surface cell (lowest_) and the top of the occupied run rising
+// from the lowest occupied cell (run_top_); summed-area tables of the columns
+// holding an occupied cell and of those known at all give a window's coverage
+// in O(1).
+void FeatureMap::scan_columns(const ZoneSnapshot& zone) {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
   const std::size_t stride = static_cast<std::size_t>(nx + 1);
   std::fill_n(coverage_.get(), stride, 0);
   std::fill_n(observed_.get(), stride, 0);
@@ -32,47 +40,61 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
     coverage_[static_cast<std::size_t>(y + 1) * stride] = 0;
     observed_[static_cast<std::size_t>(y + 1) * stride] = 0;
     for (int x = 0; x < nx; ++x) {
-      std::int16_t lowest = kNoHeight;
       const bool known = zone.column_known(x, y);  // any evidence, free or occupied
-      for (int h = 0; known && h < nz; ++h) {
-        if (zone.occupied(zone.index(x, y, z_up_ ? h : nz - 1 - h))) {
-          lowest = static_cast<std::int16_t>(h);
-          break;
-        }
-      }
-      // The run rising from it, followed no farther than the band can reach.
-      int top = lowest;
-      const int run_end = std::min(nz - 1, lowest + ground_band_cells_);
-      while (lowest != kNoHeight && top < run_end &&
-             zone.occupied(zone.index(x, y, z_up_ ? top + 1 : nz - 2 - top))) {
-        ++top;
-      }
-      // The surface lies where the run's fused value peaks: far views smear a band
-      // about it both ways, so its lowest cell lies under the ground (with the
-      // band measured; else the run is that one cell).
-      std::int16_t surface = lowest;
-      int peak_level = -1;
-      for (int h = lowest; lowest != kNoHeight && h <= top; ++h) {
-        const int level = zone.level(zone.index(x, y, z_up_ ? h : nz - 1 - h));
-        if (level > peak_level) {
-          peak_level = level;
-          surface = static_cast<std::int16_t>(h);
-        }
-      }
+      std::int16_t surface = kNoHeight, top = kNoHeight;
+      if (known) column_surface(zone, x, y, &surface, &top);
       lowest_[static_cast<std::size_t>(y) * nx + x] = surface;
-      run_top_[static_cast<std::size_t>(y) * nx + x] = static_cast<std::int16_t>(top);
-      covered_row += lowest != kNoHeight ? 1 : 0;
+      run_top_[static_cast<std::size_t>(y) * nx + x] = top;
+      covered_row += surface != kNoHeight ? 1 : 0;
       observed_row += known ? 1 : 0;
       const std::size_t at = static_cast<std::size_t>(y + 1) * stride + x + 1;
       coverage_[at] = coverage_[at - stride] + covered_row;
       observed_[at] = observed_[at - stride] + observed_row;
     }
   }
-  // Terrain candidates: the surface cell, minimum over the window.
+}
+
+// One column's lowest occupied cell, the run rising from it (followed no
+// farther than the band can reach) and the surface in it: where the run's
+// fused value peaks (far views smear a band about it both ways, so its lowest
+// cell lies under the ground with the band measured; else the run is that one
+// cell). kNoHeight for both when no cell is occupied.
+void FeatureMap::column_surface(const ZoneSnapshot& zone, int x, int y, std::int16_t* surface,
+                                std::int16_t* run_top) const {
+  const int nz = dims_[2];
+  const auto cell = [&](int h) { return zone.index(x, y, z_up_ ? h : nz - 1 - h); };
+  int lowest = kNoHeight;
+  for (int h = 0; h < nz; ++h) {
+    if (zone.occupied(cell(h))) {
+      lowest = h;
+      break;
+    }
+  }
+  if (lowest == kNoHeight) return;
+  int top = lowest;
+  const int run_end = std::min(nz - 1, lowest + ground_band_cells_);
+  while (top < run_end && zone.occupied(cell(top + 1))) ++top;
+  *surface = static_cast<std::int16_t>(lowest);
+  int peak_level = -1;
+  for (int h = lowest; h <= top; ++h) {
+    const int level = zone.level(cell(h));
+    if (level > peak_level) {
+      peak_level = level;
+      *surface = static_cast<std::int16_t>(h);
+    }
+  }
+  *run_top = static_cast<std::int16_t>(top);
+}
+
+// Terrain candidates: the surface cell, minimum over the window; kept where the
+// window is a surface (enough of its observed columns hold an occupied cell),
+// not a thing standing in free air.
+void FeatureMap::keep_surface_windows() {
+  const int nx = dims_[0];
+  const int ny = dims_[1];
+  const std::size_t stride = static_cast<std::size_t>(nx + 1);
   const int r = ground_window_cells_;
   window_min(lowest_.get(), terrain_.get(), column_tmp_.get(), r);
-  // Kept where the window is a surface (enough of its observed columns hold an
-  // occupied cell), not a thing standing in free air.
   for (int y = 0; y < ny; ++y) {
     const int y0 = std::max(0, y - r);
     const int y1 = std::min(ny - 1, y + r);
@@ -85,11 +107,16 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
       if (covered < config_.ground_min_coverage * observed) t = kNoHeight;
     }
   }
-  // Columns at the rim of the seen ground (few observed columns hold the ground
-  // there) and in the shadows behind obstacles take the lowest terrain of the
-  // surface columns within one window radius, else within three (lowest_ is free
-  // to reuse now): on a slope the lowest within three radii lies under the
-  // ground there, and the band above it would stand out as objects.
+}
+
+// Columns at the rim of the seen ground (few observed columns hold the ground
+// there) and in the shadows behind obstacles take the lowest terrain of the
+// surface columns within one window radius, else within three (lowest_ is free
+// to reuse now): on a slope the lowest within three radii lies under the
+// ground there, and the band above it would stand out as objects.
+void FeatureMap::borrow_terrain_where_unseen() {
+  const std::size_t columns = static_cast<std::size_t>(dims_[0]) * dims_[1];
+  const int r = ground_window_cells_;
   window_min(terrain_.get(), lowest_.get(), column_tmp_.get(), 3 * r);
   window_min(terrain_.get(), near_terrain_.get(), column_tmp_.get(), r);
   for (std::size_t c = 0; c < columns; ++c) {
@@ -99,7 +126,6 @@ void FeatureMap::compute_terrain(const ZoneSnapshot& zone) {
     // cut by the zone's bottom face) measures no band.
     run_top_[c] = kNoHeight;
   }
-  compute_ground_top();
 }
 
 void FeatureMap::compute_ground_top() {

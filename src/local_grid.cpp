@@ -117,24 +117,30 @@ void LocalGrid::extend_touched(int x0, int y0, int z0, int x1, int y1, int z1) {
   }
 }
 
-int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& direction,
-                        const RayProfile& ray) {
-  // Clip [delta_begin, delta_end] to the grid box (slab method).
-  float t0 = ray.delta_begin;
-  float t1 = ray.delta_end;
+// The part [*t0, *t1] of the segment start + t direction inside the grid box
+// (slab method); false when none is.
+bool LocalGrid::clip_to_grid(const Eigen::Vector3f& start, const Eigen::Vector3f& direction,
+                             float* t0, float* t1) const {
   for (int a = 0; a < 3; ++a) {
     const float extent = static_cast<float>(dims_[a]);
     if (std::fabs(direction[a]) < 1e-12f) {
-      if (start[a] < 0.0f || start[a] >= extent) return 0;
+      if (start[a] < 0.0f || start[a] >= extent) return false;
       continue;
     }
     float ta = (0.0f - start[a]) / direction[a];
     float tb = (extent - start[a]) / direction[a];
     if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
+    *t0 = std::max(*t0, ta);
+    *t1 = std::min(*t1, tb);
   }
-  if (!(t0 < t1)) return 0;
+  return *t0 < *t1;
+}
+
+int LocalGrid::draw_ray(const Eigen::Vector3f& start, const Eigen::Vector3f& direction,
+                        const RayProfile& ray) {
+  float t0 = ray.delta_begin;
+  float t1 = ray.delta_end;
+  if (!clip_to_grid(start, direction, &t0, &t1)) return 0;
 
   // Amanatides & Woo traversal: visit every cell the segment crosses, in order,
   // with the δ interval [t, t_exit] the ray spends inside it.
@@ -321,94 +327,107 @@ void LocalGrid::blur_across(int axis, int radius, RowShare share, int part) {
   // so the inner loops run over contiguous cells. The originals of the rows already
   // overwritten are kept in the part's saved rows (a ring of 2 * radius + 1 rows).
   // Sheets other = first + k step only.
+  const int other = axis == 1 ? 2 : 1;  // the axis enumerating independent sheets
+  // Radius 1: the two saved rows and the row of zeros start at 0; the saved rows
+  // are kept 0 outside the span last copied into each.
+  RowSpan saved_span[2];
+  if (radius == 1) {
+    const auto n = static_cast<std::size_t>(active_hi_[0] - active_lo_[0] + 1);
+    std::fill_n(saved_rows(part), 3 * n, LocalCell{0});
+  }
+  for (int o = active_lo_[static_cast<std::size_t>(other)] + share.first;
+       o <= active_hi_[static_cast<std::size_t>(other)]; o += share.step) {
+    if (radius == 1) {
+      blur_sheet_121(axis, o, part, saved_span);
+    } else {
+      blur_sheet_wide(axis, radius, o, part);
+    }
+  }
+}
+
+// The default kernel (1 2 1) over sheet o, in one pass per row: the previous
+// row's original and this row's are kept in two saved rows (0 outside the span
+// copied into them, saved_span), the next row is still untouched; rows outside
+// the region are unknown (0). Only the union of the three rows' spans can be
+// non-zero: the rest of the row stays 0, and the spans follow.
+void LocalGrid::blur_sheet_121(int axis, int o, int part, RowSpan saved_span[2]) {
   LocalCell* saved = saved_rows(part);
   const int x0 = active_lo_[0];
   const int n = active_hi_[0] - x0 + 1;
-  const int other = axis == 1 ? 2 : 1;  // the axis enumerating independent sheets
+  const int lo = active_lo_[static_cast<std::size_t>(axis)];
+  const int hi = active_hi_[static_cast<std::size_t>(axis)];
+  LocalCell* zeros = saved + 2 * static_cast<std::size_t>(n);
+  for (int b = 0; b < 2; ++b) {  // the last sheet's rows: back to 0
+    if (saved_span[b].lo <= saved_span[b].hi) {
+      std::fill_n(saved + static_cast<std::size_t>(b) * n + (saved_span[b].lo - x0),
+                  saved_span[b].hi - saved_span[b].lo + 1, LocalCell{0});
+    }
+    saved_span[b] = RowSpan{};
+  }
+  RowSpan prev_span;  // the original span of row c - 1
+  for (int c = lo; c <= hi; ++c) {
+    RowSpan& span = sheet_span(axis, c, o);
+    const RowSpan cur_span = span;
+    const RowSpan next_span = c < hi ? sheet_span(axis, c + 1, o) : RowSpan{};
+    RowSpan out{std::numeric_limits<std::int32_t>::max(), -1};
+    for (const RowSpan& near : {prev_span, cur_span, next_span}) {
+      if (near.lo > near.hi) continue;
+      out.lo = std::min(out.lo, near.lo);
+      out.hi = std::max(out.hi, near.hi);
+    }
+    const int k = (c - lo) & 1;
+    // saved[k] held row c - 2: back to 0, then this row's original span.
+    LocalCell* cur = saved + static_cast<std::size_t>(k) * n;
+    if (saved_span[k].lo <= saved_span[k].hi) {
+      std::fill_n(cur + (saved_span[k].lo - x0), saved_span[k].hi - saved_span[k].lo + 1,
+                  LocalCell{0});
+    }
+    saved_span[k] = cur_span;
+    if (cur_span.lo <= cur_span.hi) {
+      std::copy_n(sheet_row(axis, c, o) + (cur_span.lo - x0), cur_span.hi - cur_span.lo + 1,
+                  cur + (cur_span.lo - x0));
+    }
+    span = out.lo <= out.hi ? out : RowSpan{};
+    prev_span = cur_span;
+    if (out.lo > out.hi) continue;
+    const LocalCell* prev = saved + static_cast<std::size_t>(1 - k) * n;
+    const LocalCell* next = c < hi ? sheet_row(axis, c + 1, o) : zeros;
+    const int from = out.lo - x0;
+    blur_row3(prev + from, cur + from, next + from, sheet_row(axis, c, o) + from,
+              out.hi - out.lo + 1);
+  }
+}
+
+// The wider kernel (1 4 6 4 1) over sheet o, whole rows at a time from partial
+// sums, the originals of the rows overwritten kept in a ring.
+void LocalGrid::blur_sheet_wide(int axis, int radius, int o, int part) {
+  LocalCell* saved = saved_rows(part);
+  const int x0 = active_lo_[0];
+  const int n = active_hi_[0] - x0 + 1;
   const int lo = active_lo_[static_cast<std::size_t>(axis)];
   const int hi = active_hi_[static_cast<std::size_t>(axis)];
   static constexpr int kWeights[3][5] = {{1, 0, 0, 0, 0}, {1, 2, 1, 0, 0}, {1, 4, 6, 4, 1}};
   const int* weight = kWeights[radius];
   const int ring = 2 * radius + 1;
-  // Radius 1: the two saved rows and the row of zeros start at 0; the saved rows
-  // are kept 0 outside the span last copied into each.
-  RowSpan saved_span[2];
-  if (radius == 1) std::fill_n(saved, 3 * static_cast<std::size_t>(n), LocalCell{0});
-  for (int o = active_lo_[static_cast<std::size_t>(other)] + share.first;
-       o <= active_hi_[static_cast<std::size_t>(other)]; o += share.step) {
-    auto row_at = [&](int c) {
-      return axis == 1 ? cells_.get() + index(x0, c, o) : cells_.get() + index(x0, o, c);
-    };
-    auto span_at = [&](int c) -> RowSpan& {
-      return spans_[axis == 1 ? span_index(c, o) : span_index(o, c)];
-    };
-    if (radius == 1) {
-      // The default kernel (1 2 1) in one pass per row: the previous row's
-      // original and this row's are kept in two saved rows (0 outside the span
-      // copied into them), the next row is still untouched; rows outside the
-      // region are unknown (0). Only the union of the three rows' spans can be
-      // non-zero: the rest of the row stays 0, and the spans follow.
-      LocalCell* zeros = saved + 2 * static_cast<std::size_t>(n);
-      for (int b = 0; b < 2; ++b) {  // the last sheet's rows: back to 0
-        if (saved_span[b].lo <= saved_span[b].hi) {
-          std::fill_n(saved + static_cast<std::size_t>(b) * n + (saved_span[b].lo - x0),
-                      saved_span[b].hi - saved_span[b].lo + 1, LocalCell{0});
-        }
-        saved_span[b] = RowSpan{};
-      }
-      RowSpan prev_span;  // the original span of row c - 1
-      for (int c = lo; c <= hi; ++c) {
-        RowSpan& span = span_at(c);
-        const RowSpan cur_span = span;
-        const RowSpan next_span = c < hi ? span_at(c + 1) : RowSpan{};
-        RowSpan out{std::numeric_limits<std::int32_t>::max(), -1};
-        for (const RowSpan& near : {prev_span, cur_span, next_span}) {
-          if (near.lo > near.hi) continue;
-          out.lo = std::min(out.lo, near.lo);
-          out.hi = std::max(out.hi, near.hi);
-        }
-        const int k = (c - lo) & 1;
-        // saved[k] held row c - 2: back to 0, then this row's original span.
-        LocalCell* cur = saved + static_cast<std::size_t>(k) * n;
-        if (saved_span[k].lo <= saved_span[k].hi) {
-          std::fill_n(cur + (saved_span[k].lo - x0), saved_span[k].hi - saved_span[k].lo + 1,
-                      LocalCell{0});
-        }
-        saved_span[k] = cur_span;
-        if (cur_span.lo <= cur_span.hi) {
-          std::copy_n(row_at(c) + (cur_span.lo - x0), cur_span.hi - cur_span.lo + 1,
-                      cur + (cur_span.lo - x0));
-        }
-        span = out.lo <= out.hi ? out : RowSpan{};
-        prev_span = cur_span;
-        if (out.lo > out.hi) continue;
-        const LocalCell* prev = saved + static_cast<std::size_t>(1 - k) * n;
-        const LocalCell* next = c < hi ? row_at(c + 1) : zeros;
-        const int from = out.lo - x0;
-        blur_row3(prev + from, cur + from, next + from, row_at(c) + from, out.hi - out.lo + 1);
-      }
-      continue;
+  auto saved_row = [&](int c) {
+    return saved + static_cast<std::size_t>(((c % ring) + ring) % ring) * n;
+  };
+  for (int c = lo; c <= hi; ++c) {
+    std::int16_t* sum = sum_.get() + static_cast<std::size_t>(part) * dims_[0];
+    std::fill_n(sum, n, std::int16_t{0});
+    for (int k = -radius; k <= radius; ++k) {
+      const int cc = c + k;
+      if (cc < lo || cc > hi) continue;  // outside the region: unknown (0)
+      const LocalCell* src = cc < c ? saved_row(cc) : sheet_row(axis, cc, o);
+      const int w = weight[k + radius];
+      for (int x = 0; x < n; ++x) sum[x] = static_cast<std::int16_t>(sum[x] + w * src[x]);
     }
-    auto saved_row = [&](int c) {
-      return saved + static_cast<std::size_t>(((c % ring) + ring) % ring) * n;
-    };
-    for (int c = lo; c <= hi; ++c) {
-      std::int16_t* sum = sum_.get() + static_cast<std::size_t>(part) * dims_[0];
-      std::fill_n(sum, n, std::int16_t{0});
-      for (int k = -radius; k <= radius; ++k) {
-        const int cc = c + k;
-        if (cc < lo || cc > hi) continue;  // outside the region: unknown (0)
-        const LocalCell* src = cc < c ? saved_row(cc) : row_at(cc);
-        const int w = weight[k + radius];
-        for (int x = 0; x < n; ++x) sum[x] = static_cast<std::int16_t>(sum[x] + w * src[x]);
-      }
-      LocalCell* dst = row_at(c);
-      const LocalCell* original = saved_row(c);
-      std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
-      for (int x = 0; x < n; ++x)
-        dst[x] = static_cast<LocalCell>(blurred(original[x], symmetric_shift(sum[x], 2 * radius)));
-      span_at(c) = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
-    }
+    LocalCell* dst = sheet_row(axis, c, o);
+    const LocalCell* original = saved_row(c);
+    std::copy_n(dst, n, saved_row(c));  // keep the original for the next rows
+    for (int x = 0; x < n; ++x)
+      dst[x] = static_cast<LocalCell>(blurred(original[x], symmetric_shift(sum[x], 2 * radius)));
+    sheet_span(axis, c, o) = RowSpan{x0, active_hi_[0]};  // this kernel works on whole rows
   }
 }
 

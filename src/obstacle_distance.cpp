@@ -287,6 +287,70 @@ bool keep_nearest(const NearestObstacle& o, NearestObstacle* out, std::size_t* n
   return true;
 }
 
+// One box's nearest point in each wedge (horizontal distance, point relative
+// to the vehicle; kInf where it reaches no wedge). When the vehicle stands over
+// or under it (or in it): straight up or down, else blocked all round at the
+// nearest distance an autopilot takes; *inside says so.
+struct WedgeNearest {
+  double horizontal[kMaxObstacleWedges];
+  Eigen::Vector2d point[kMaxObstacleWedges];
+  bool inside = false;
+};
+WedgeNearest box_in_wedges(const ObstacleBox* boxes, std::size_t b, const FootprintView& footprints,
+                           const HorizontalAxes& axes, const Eigen::Vector3d& position, double z,
+                           const SectorConfig& config, int wedges) {
+  WedgeNearest near;
+  std::fill_n(near.horizontal, wedges, kInf);
+  for_each_rectangle(
+      boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+        const Eigen::Vector2d p = position.head<2>();
+        near.inside = !for_each_wedge(lo - p, hi - p, axes, wedges, config.max_distance_m,
+                                      [&](int w, const Eigen::Vector2d& q, double d) {
+                                        if (d < near.horizontal[w]) {
+                                          near.horizontal[w] = d;
+                                          near.point[w] = q;
+                                        }
+                                      }) ||
+                      near.inside;
+      });
+  if (!near.inside) return near;
+  std::fill_n(near.horizontal, wedges, kInf);
+  const double dz = std::abs(z - position.z());
+  if (dz >= config.min_distance_m) {
+    near.horizontal[0] = 0.0;
+    near.point[0] = Eigen::Vector2d::Zero();
+    return near;
+  }
+  for (int w = 0; w < wedges; ++w) {
+    const double bearing = w * 2.0 * kPi / wedges;
+    const Eigen::Vector3d dir = axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
+    near.horizontal[w] = config.min_distance_m;
+    near.point[w] = Eigen::Vector2d(dir.x(), dir.y()) * config.min_distance_m;
+  }
+  return near;
+}
+
+// A wedge whose nearest point gave way to nearer ones elsewhere takes the
+// place of the farthest point that is not a wedge's nearest.
+void keep_each_wedges_nearest(const NearestObstacle* wedge_nearest, int wedges,
+                              NearestObstacle* out, std::size_t n) {
+  for (int w = 0; w < wedges; ++w) {
+    const NearestObstacle& o = wedge_nearest[w];
+    if (o.wedge < 0) continue;
+    const auto same = [&](const NearestObstacle& x) { return x.id == o.id && x.wedge == o.wedge; };
+    if (std::any_of(out, out + n, same)) continue;
+    for (std::size_t i = n; i-- > 0;) {
+      const NearestObstacle& x = out[i];
+      if (wedge_nearest[x.wedge].id == x.id && wedge_nearest[x.wedge].wedge == x.wedge) continue;
+      out[i] = o;
+      std::sort(out, out + n, [](const NearestObstacle& l, const NearestObstacle& r) {
+        return l.distance_m < r.distance_m;
+      });
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
@@ -308,47 +372,14 @@ std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
     if (box.kind != FeatureKind::kObstacle || !in_band(box, vehicle_height, world_z_up, config)) {
       continue;
     }
-    // The box's nearest horizontal point in each wedge, over its rectangles.
-    double horizontal[kMaxObstacleWedges];
-    Eigen::Vector2d point[kMaxObstacleWedges];
-    std::fill_n(horizontal, wedges, kInf);
-    bool inside = false;
-    for_each_rectangle(
-        boxes, b, footprints, [&](const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
-          const Eigen::Vector2d p = position.head<2>();
-          inside = !for_each_wedge(lo - p, hi - p, axes, wedges, config.max_distance_m,
-                                   [&](int w, const Eigen::Vector2d& q, double d) {
-                                     if (d < horizontal[w]) {
-                                       horizontal[w] = d;
-                                       point[w] = q;
-                                     }
-                                   }) ||
-                   inside;
-        });
     // Heights: the box's nearest to the vehicle's.
     const double z = std::clamp(position.z(), box.min.z(), box.max.z());
-    if (inside) {
-      // Over or under it (or in it): straight up or down, else blocked all round
-      // at the nearest distance an autopilot takes.
-      std::fill_n(horizontal, wedges, kInf);
-      const double dz = std::abs(z - position.z());
-      if (dz >= config.min_distance_m) {
-        horizontal[0] = 0.0;
-        point[0] = Eigen::Vector2d::Zero();
-      } else {
-        for (int w = 0; w < wedges; ++w) {
-          const double bearing = w * 2.0 * kPi / wedges;
-          const Eigen::Vector3d dir =
-              axes.forward * std::cos(bearing) + axes.right * std::sin(bearing);
-          horizontal[w] = config.min_distance_m;
-          point[w] = Eigen::Vector2d(dir.x(), dir.y()) * config.min_distance_m;
-        }
-      }
-    }
+    const WedgeNearest near =
+        box_in_wedges(boxes, b, footprints, axes, position, z, config, wedges);
     for (int w = 0; w < wedges; ++w) {
-      if (horizontal[w] == kInf) continue;
-      const Eigen::Vector3d q(position.x() + point[w].x(), position.y() + point[w].y(),
-                              inside && horizontal[w] > 0.0 ? position.z() : z);
+      if (near.horizontal[w] == kInf) continue;
+      const Eigen::Vector3d q(position.x() + near.point[w].x(), position.y() + near.point[w].y(),
+                              near.inside && near.horizontal[w] > 0.0 ? position.z() : z);
       const double d = (q - position).norm();
       if (d > config.max_distance_m) continue;
       NearestObstacle o;
@@ -360,23 +391,7 @@ std::size_t nearest_obstacles(const ObstacleBox* boxes, std::size_t count,
       keep_nearest(o, out, &n, capacity);
     }
   }
-  // A wedge whose nearest point gave way to nearer ones elsewhere takes the
-  // place of the farthest point that is not a wedge's nearest.
-  for (int w = 0; w < wedges; ++w) {
-    const NearestObstacle& o = wedge_nearest[w];
-    if (o.wedge < 0) continue;
-    const auto same = [&](const NearestObstacle& x) { return x.id == o.id && x.wedge == o.wedge; };
-    if (std::any_of(out, out + n, same)) continue;
-    for (std::size_t i = n; i-- > 0;) {
-      const NearestObstacle& x = out[i];
-      if (wedge_nearest[x.wedge].id == x.id && wedge_nearest[x.wedge].wedge == x.wedge) continue;
-      out[i] = o;
-      std::sort(out, out + n, [](const NearestObstacle& l, const NearestObstacle& r) {
-        return l.distance_m < r.distance_m;
-      });
-      break;
-    }
-  }
+  keep_each_wedges_nearest(wedge_nearest, wedges, out, n);
   return n;
 }
 

@@ -201,12 +201,96 @@ void ProjectiveIntegrator::draw_rows(const FrameSetup& setup, const DepthRangeTa
   *result = part;
 }
 
+// Where one cell of the walk stands: its indices and its footprint (the pixels
+// whose rays can cross it) with their depth range.
+struct ProjectiveIntegrator::CellAt {
+  int x, y, z;
+  int px0, py0, px1, py1;
+  std::uint16_t lo_code, hi_code;
+  bool quick;  // the centre pixel's ray surely crosses the cell
+};
+
+// The code of the pixel nearest to the cell centre's image when its ray surely
+// crosses the cell (quick), else kMissing; looked up once a cell (the block
+// test, the box test and U < 0 may each ask): *looked_up caches it.
+__attribute__((always_inline)) inline std::uint16_t ProjectiveIntegrator::centre_code(
+    const FrameSetup& f, const DepthRangeTable& depths, bool quick, const Eigen::Vector3d& pc,
+    int* looked_up) const {
+  if (*looked_up >= 0) return static_cast<std::uint16_t>(*looked_up);
+  std::uint16_t code = DepthRangeTable::kMissing;
+  if (quick) {
+    const double inv_z = 1.0 / pc.z();
+    const double uc = f.fx * pc.x() * inv_z + f.cx, vc = f.fy * pc.y() * inv_z + f.cy;
+    if (uc > -0.5 && vc > -0.5 && uc < f.w - 0.5 && vc < f.h - 0.5)
+      code = depths.codes()[static_cast<std::size_t>(vc + 0.5) * f.w +
+                            static_cast<std::size_t>(uc + 0.5)];
+  }
+  *looked_up = code;
+  return code;
+}
+
+__attribute__((always_inline)) inline void ProjectiveIntegrator::set_cell_box(
+    const FrameSetup& f, const CellAt& at, CellRays& cell) const {
+  const Eigen::Vector3f cell_lo =
+      (Eigen::Vector3d(f.origin.x + at.x, f.origin.y + at.y, f.origin.z + at.z) * f.s - f.t)
+          .cast<float>();
+  for (int k = 0; k < 3; ++k) {
+    cell.rays.lo[k] = splat(cell_lo[k]);
+    cell.rays.hi[k] = splat(cell_lo[k] + f.cell_size);
+  }
+}
+
+// Probes, four rays at once: through the centre, through points near the
+// corners farthest from and nearest to the camera (the rays that leave the cell
+// last and enter it first), and through the centre of the footprint. Their
+// largest m̂ in the cell (cell.rays set): a value some ray reaches.
+__attribute__((always_inline)) inline float ProjectiveIntegrator::probe_value(
+    const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at, const Eigen::Vector3d& pc,
+    const CellRays& cell) const {
+  const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
+             pzf = static_cast<float>(pc.z());
+  const Lanes qx = splat(pxf) + f.probe_x, qy = splat(pyf) + f.probe_y, qz = splat(pzf) + f.probe_z;
+  const Lanes footprint_u = splat(0.5f * static_cast<float>(at.px0 + at.px1));
+  const Lanes footprint_v = splat(0.5f * static_cast<float>(at.py0 + at.py1));
+  const auto ahead = qz > 1e-6f;
+  Lanes pu = ahead ? splat(f.fx_f) * qx / qz + splat(f.cx_f) : footprint_u;
+  Lanes pv = ahead ? splat(f.fy_f) * qy / qz + splat(f.cy_f) : footprint_v;
+  pu[3] = footprint_u[3];
+  pv[3] = footprint_v[3];
+  // Rounded to the nearest pixel of the footprint (clamped first: in range).
+  pu = lanes_min(lanes_max(pu, splat(static_cast<float>(at.px0))),
+                 splat(static_cast<float>(at.px1)));
+  pv = lanes_min(lanes_max(pv, splat(static_cast<float>(at.py0))),
+                 splat(static_cast<float>(at.py1)));
+  using Ints = std::int32_t __attribute__((vector_size(16)));
+  const Ints pixel_u = __builtin_convertvector(pu + 0.5f, Ints);  // >= 0: truncation
+  const Ints pixel_v = __builtin_convertvector(pv + 0.5f, Ints);  // rounds
+  pu = __builtin_convertvector(pixel_u, Lanes);
+  pv = __builtin_convertvector(pixel_v, Lanes);
+  const Ints pixel = pixel_v * f.w + pixel_u;
+  const std::uint16_t* codes = depths.codes();
+  const Ints code_ints = {codes[pixel[0]], codes[pixel[1]], codes[pixel[2]], codes[pixel[3]]};
+  const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
+  return lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
+}
+
+// Whether a real ray reaches into the cell: the reference draws nothing into a
+// cell that none crosses, and the footprint box is wider than the cell's
+// silhouette. `centre_reaches` settles it for the centre pixel's ray, else the
+// probes and then the footprint's rays are clipped until one crosses.
+__attribute__((always_inline)) inline bool ProjectiveIntegrator::crossed(
+    bool centre_reaches, const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at,
+    const Eigen::Vector3d& pc, CellRays& cell) const {
+  if (centre_reaches) return true;
+  set_cell_box(f, at, cell);
+  if (probe_value(f, depths, at, pc, cell) >= -1.0f) return true;
+  return any_ray_crosses(depths, at.px0, at.py0, at.px1, at.py1, cell);
+}
+
+// Inlined into draw's row loop: it is the per-cell body, apart only for reading.
 __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
     const FrameSetup& f, const DepthRangeTable& depths, std::uint8_t block, int x, int y, int z,
     const Eigen::Vector3d& pc, CellRays& cell, LocalGrid& grid, ProjectiveStats* stats) const {
-  const double s = f.s;
-  const int w = f.w, h = f.h;
-  const double fx = f.fx, fy = f.fy, cx = f.cx, cy = f.cy;
   const double zc = pc.z();
   const double a = std::max(zc - f.half.z(), static_cast<double>(d_min_));
   const double b = zc + f.half.z();
@@ -219,24 +303,9 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
   // then exactly -1). When every such ray ends before the cell, nothing
   // reaches it.
   const bool quick = zc - f.half.z() >= d_min_ && zc <= f.quick_max_depth;
-  // The code of the pixel nearest to the cell centre's image when its ray
-  // surely crosses the cell (quick), else kMissing; looked up once a cell
-  // (the block test, the box test and U < 0 may each ask).
-  int centre_looked_up = -1;
-  const auto centre_code = [&]() -> std::uint16_t {
-    if (centre_looked_up >= 0) return static_cast<std::uint16_t>(centre_looked_up);
-    std::uint16_t code = DepthRangeTable::kMissing;
-    if (quick) {
-      const double inv_z = 1.0 / zc;
-      const double uc = fx * pc.x() * inv_z + cx, vc = fy * pc.y() * inv_z + cy;
-      if (uc > -0.5 && vc > -0.5 && uc < w - 0.5 && vc < h - 0.5)
-        code = depths.codes()[static_cast<std::size_t>(vc + 0.5) * w +
-                              static_cast<std::size_t>(uc + 0.5)];
-    }
-    centre_looked_up = code;
-    return code;
-  };
-  if (block == kBlockFree && centre_code() != DepthRangeTable::kMissing) {
+  int centre = -1;  // centre_code's cache
+  if (block == kBlockFree &&
+      centre_code(f, depths, quick, pc, &centre) != DepthRangeTable::kMissing) {
     ++stats->cells_evaluated;
     ++stats->cells_block_free;
     grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
@@ -246,10 +315,9 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
   // rays can cross the cell.
   const PixelRect rect = project_cube(f.projection, static_cast<float>(pc.x()),
                                       static_cast<float>(pc.y()), static_cast<float>(pc.z()));
-  const int px0 = rect.x0, px1 = rect.x1, py0 = rect.y0, py1 = rect.y1;
-  if (px0 > px1 || py0 > py1) return;  // no pixel sees the cell
+  if (rect.x0 > rect.x1 || rect.y0 > rect.y1) return;  // no pixel sees the cell
   std::uint16_t lo_code = 0, hi_code = 0;
-  depths.range(px0, py0, px1, py1, &lo_code, &hi_code);
+  depths.range(rect.x0, rect.y0, rect.x1, rect.y1, &lo_code, &hi_code);
   if (lo_code > hi_code) return;  // every pixel near it missing
   if (hi_code != DepthRangeTable::kFar && reach(hi_code) < static_cast<float>(a)) {
     ++stats->cells_hidden;  // every ray ends before the cell
@@ -257,131 +325,96 @@ __attribute__((always_inline)) inline void ProjectiveIntegrator::settle_cell(
   }
   cell.a = static_cast<float>(a);
   cell.b = static_cast<float>(b);
-  const auto set_cell_box = [&] {
-    const Eigen::Vector3f cell_lo =
-        (Eigen::Vector3d(f.origin.x + x, f.origin.y + y, f.origin.z + z) * s - f.t).cast<float>();
-    for (int k = 0; k < 3; ++k) {
-      cell.rays.lo[k] = splat(cell_lo[k]);
-      cell.rays.hi[k] = splat(cell_lo[k] + f.cell_size);
-    }
-  };
-  // Probes, four rays at once: through the centre, through points near the
-  // corners farthest from and nearest to the camera (the rays that leave the
-  // cell last and enter it first), and through the centre of the footprint.
-  // Their largest m̂ in the cell (cell.rays set): a value some ray reaches.
-  const auto probe_value = [&] {
-    const auto pxf = static_cast<float>(pc.x()), pyf = static_cast<float>(pc.y()),
-               pzf = static_cast<float>(pc.z());
-    const Lanes qx = splat(pxf) + f.probe_x, qy = splat(pyf) + f.probe_y,
-                qz = splat(pzf) + f.probe_z;
-    const Lanes footprint_u = splat(0.5f * static_cast<float>(px0 + px1));
-    const Lanes footprint_v = splat(0.5f * static_cast<float>(py0 + py1));
-    const auto ahead = qz > 1e-6f;
-    Lanes pu = ahead ? splat(f.fx_f) * qx / qz + splat(f.cx_f) : footprint_u;
-    Lanes pv = ahead ? splat(f.fy_f) * qy / qz + splat(f.cy_f) : footprint_v;
-    pu[3] = footprint_u[3];
-    pv[3] = footprint_v[3];
-    // Rounded to the nearest pixel of the footprint (clamped first: in range).
-    pu = lanes_min(lanes_max(pu, splat(static_cast<float>(px0))), splat(static_cast<float>(px1)));
-    pv = lanes_min(lanes_max(pv, splat(static_cast<float>(py0))), splat(static_cast<float>(py1)));
-    using Ints = std::int32_t __attribute__((vector_size(16)));
-    const Ints pixel_u = __builtin_convertvector(pu + 0.5f, Ints);  // >= 0: truncation
-    const Ints pixel_v = __builtin_convertvector(pv + 0.5f, Ints);  // rounds
-    pu = __builtin_convertvector(pixel_u, Lanes);
-    pv = __builtin_convertvector(pixel_v, Lanes);
-    const Ints at = pixel_v * w + pixel_u;
-    const std::uint16_t* codes = depths.codes();
-    const Ints code_ints = {codes[at[0]], codes[at[1]], codes[at[2]], codes[at[3]]};
-    const Lanes probe_code = __builtin_convertvector(code_ints, Lanes);
-    return lanes_hmax(rays_best(pu, pv, probe_code, cell.rays));
-  };
-  // Whether a real ray reaches into the cell: the reference draws nothing into
-  // a cell that none crosses, and the footprint box is wider than the cell's
-  // silhouette. `centre_reaches` settles it for the centre pixel's ray, else
-  // the probes and then the footprint's rays are clipped until one crosses.
-  const auto crossed = [&](bool centre_reaches) {
-    if (centre_reaches) return true;
-    set_cell_box();
-    if (probe_value() >= -1.0f) return true;
-    return any_ray_crosses(depths, px0, py0, px1, py1, cell);
-  };
+  ++stats->cells_evaluated;
+  const CellAt at{x, y, z, rect.x0, rect.y0, rect.x1, rect.y1, lo_code, hi_code, quick};
   if (free_across(lo_code, hi_code, static_cast<float>(b))) {
     // What best_value gives here, without its scan. Every ray near the cell
     // is free past it: a real centre ray crosses it.
-    ++stats->cells_evaluated;
-    if (!crossed(centre_code() != DepthRangeTable::kMissing)) return;
+    const bool centre_reaches =
+        centre_code(f, depths, quick, pc, &centre) != DepthRangeTable::kMissing;
+    if (!crossed(centre_reaches, f, depths, at, pc, cell)) return;
     ++stats->cells_box_free;
     grid.write_max(x, y, z, static_cast<LocalCell>(-kCellScale));
     return;
   }
-  // An upper bound U from the footprint's depth range (exact when it says
-  // free). The cell gets U whenever the reference's value has U's sign: a
-  // value never below the reference's (near a surface, a little more
-  // occupied or less free: the safe side), at the sign the reference gives.
-  ++stats->cells_evaluated;
-  float value = best_value(depths, px0, py0, px1, py1, lo_code, hi_code, cell.a, cell.b);
   float probed = kNoRay;  // the probes' value, when U >= 0 asked for it
+  float value = sign_settled_value(f, depths, at, pc, cell, stats, &centre, &probed);
+  if (value < -1.0f) return;
+  if (see_through_ && to_fixed(value) > -kCellScale) {
+    value = seen_through_value(f, depths, at, cell, stats, value, probed);
+  }
+  grid.write_max(x, y, z, to_local_cell(value));
+}
+
+// An upper bound U from the footprint's depth range (exact when it says free).
+// The cell gets U whenever the reference's value has U's sign: a value never
+// below the reference's (near a surface, a little more occupied or less free:
+// the safe side), at the sign the reference gives. Below -1: nothing written.
+__attribute__((always_inline)) inline float ProjectiveIntegrator::sign_settled_value(
+    const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at, const Eigen::Vector3d& pc,
+    CellRays& cell, ProjectiveStats* stats, int* centre, float* probed) const {
+  float value =
+      best_value(depths, at.px0, at.py0, at.px1, at.py1, at.lo_code, at.hi_code, cell.a, cell.b);
   const int upper_fixed = to_fixed(value);
   if (value > -1.0f && upper_fixed >= 0) {
     // U < 0 settles the sign: every ray gives at most U. U >= 0 may claim a
-    // surface (or an unknown 0) where the rays that really cross the cell
-    // are all free. Probe rays give a lower bound; when it rounds to U's
-    // sign the sign is settled, else the rays are looked at one by one, as
-    // the reference does, until one does.
-    set_cell_box();
+    // surface (or an unknown 0) where the rays that really cross the cell are
+    // all free. Probe rays give a lower bound; when it rounds to U's sign the
+    // sign is settled, else the rays are looked at one by one, as the
+    // reference does, until one does.
+    set_cell_box(f, at, cell);
     cell.enough_fixed = upper_fixed > 0 ? 1 : 0;
-    const float lower = probe_value();
-    probed = lower;
+    const float lower = probe_value(f, depths, at, pc, cell);
+    *probed = lower;
     if (lower < -1.0f || to_fixed(lower) < cell.enough_fixed) {
       ++stats->cells_exact;
-      const float found = exact_value(depths, px0, py0, px1, py1, cell, lower, &stats->rays_exact);
+      const float found =
+          exact_value(depths, at.px0, at.py0, at.px1, at.py1, cell, lower, &stats->rays_exact);
       if (to_fixed(found) < cell.enough_fixed) value = found;  // a lower sign: exact
     }
   } else if (value >= -1.0f) {
     // U < 0, if a ray reaches the cell: the centre's does when it ends past b.
-    const std::uint16_t centre = centre_code();
+    const std::uint16_t code = centre_code(f, depths, at.quick, pc, centre);
     const bool centre_reaches =
-        centre != DepthRangeTable::kMissing &&
-        (centre == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(centre) >= cell.b);
-    if (!crossed(centre_reaches)) return;
+        code != DepthRangeTable::kMissing &&
+        (code == DepthRangeTable::kFar ? cell.b <= d_max_ : reach(code) >= cell.b);
+    if (!crossed(centre_reaches, f, depths, at, pc, cell)) return kNoRay;
   }
-  if (value < -1.0f) return;
-  if (see_through_ && to_fixed(value) > -kCellScale) {
-    // A ray crossed the cell wholly free and none came near its depth in it:
-    // free (MapConfig::see_through). value bounds every ray's m̂ from above; the
-    // probes (asked whenever value >= 0), when they reach the near peak, keep the
-    // cell without a search.
-    set_cell_box();
-    const bool may_reach = to_fixed(value) >= near_peak_fixed_;
-    const float lower = probed;
-    const bool probes_near = lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_;
-    // The probes reaching U: kept at its exact value, whether seen through or not.
-    const bool settled = probes_near && to_fixed(lower) >= to_fixed(value);
-    if (!settled && any_ray_free_across(depths, px0, py0, px1, py1, hi_code, cell)) {
-      // Some ray reaches the near peak (or, behind its depth, the lower bar):
-      // kept, from the best value found so far; else seen through.
-      float near = probes_near ? lower : kNoRay;
-      if (!probes_near && may_reach) {
-        near = near_peak_value(depths, px0, py0, px1, py1, lower, cell, stats);
-      }
-      const bool kept = (near >= -1.0f && to_fixed(near) >= near_peak_fixed_) ||
-                        (near_peak_behind_fixed_ < near_peak_fixed_ &&
-                         to_fixed(value) >= near_peak_behind_fixed_ &&
-                         reaches_near_peak_behind(depths, px0, py0, px1, py1, cell));
-      // A search that did not reach the near peak found the exact maximum.
-      const bool near_exact =
-          !probes_near && may_reach && near >= -1.0f && to_fixed(near) < near_peak_fixed_;
-      if (!kept) {
-        value = -1.0f;
-      } else if (near_exact) {
-        value = std::min(value, near);
-      } else if (to_fixed(value) > 0) {
-        value =
-            exact_at_edge(depths, px0, py0, px1, py1, value, std::max(lower, near), cell, stats);
-      }
-    }
+  return value;
+}
+
+// MapConfig::see_through: a ray crossed the cell wholly free and none came near
+// its depth in it: free. `value` bounds every ray's m̂ from above; the probes
+// (asked whenever value >= 0), when they reach the near peak, keep the cell
+// without a search.
+__attribute__((always_inline)) inline float ProjectiveIntegrator::seen_through_value(
+    const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at, CellRays& cell,
+    ProjectiveStats* stats, float value, float probed) const {
+  set_cell_box(f, at, cell);
+  const int x0 = at.px0, y0 = at.py0, x1 = at.px1, y1 = at.py1;
+  const bool may_reach = to_fixed(value) >= near_peak_fixed_;
+  const float lower = probed;
+  const bool probes_near = lower >= -1.0f && to_fixed(lower) >= near_peak_fixed_;
+  // The probes reaching U: kept at its exact value, whether seen through or not.
+  const bool settled = probes_near && to_fixed(lower) >= to_fixed(value);
+  if (settled || !any_ray_free_across(depths, x0, y0, x1, y1, at.hi_code, cell)) return value;
+  // Some ray reaches the near peak (or, behind its depth, the lower bar): kept,
+  // from the best value found so far; else seen through.
+  float near = probes_near ? lower : kNoRay;
+  if (!probes_near && may_reach) near = near_peak_value(depths, x0, y0, x1, y1, lower, cell, stats);
+  const bool kept =
+      (near >= -1.0f && to_fixed(near) >= near_peak_fixed_) ||
+      (near_peak_behind_fixed_ < near_peak_fixed_ && to_fixed(value) >= near_peak_behind_fixed_ &&
+       reaches_near_peak_behind(depths, x0, y0, x1, y1, cell));
+  // A search that did not reach the near peak found the exact maximum.
+  const bool near_exact =
+      !probes_near && may_reach && near >= -1.0f && to_fixed(near) < near_peak_fixed_;
+  if (!kept) return -1.0f;
+  if (near_exact) return std::min(value, near);
+  if (to_fixed(value) > 0) {
+    return exact_at_edge(depths, x0, y0, x1, y1, value, std::max(lower, near), cell, stats);
   }
-  grid.write_max(x, y, z, to_local_cell(value));
+  return value;
 }
 
 }  // namespace zonemap

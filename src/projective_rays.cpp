@@ -9,6 +9,45 @@
 
 namespace zonemap {
 
+// exact_value's state across its two passes (inlined: a local of exact_value).
+struct ProjectiveIntegrator::ExactSearch {
+  const ProjectiveIntegrator& integrator;
+  const DepthRangeTable& depths;
+  const CellRays& cell;
+  int x0, y0, x1, y1;
+  float best;                              // a value some ray reaches
+  std::uint16_t sign_lo = 0, sign_hi = 0;  // the depths that can reach the sign sought
+  std::int64_t clipped = 0;                // rays clipped so far
+  bool passed_over = false;                // some ray was not clipped in pass 1
+  // The tiles' depth ranges, kept for the second pass when the footprint has few
+  // enough tiles (the first pass visits them all when it does not stop early).
+  int tile_cols = 0;
+  bool keep_ranges = false;
+  std::array<std::uint32_t, kKeptTileRanges> kept_ranges;  // written before read
+
+  ExactSearch(const ProjectiveIntegrator& of, const DepthRangeTable& codes, const CellRays& rays,
+              int left, int top, int right, int bottom, float reached)
+      : integrator(of),
+        depths(codes),
+        cell(rays),
+        x0(left),
+        y0(top),
+        x1(right),
+        y1(bottom),
+        best(reached) {}
+
+  __attribute__((always_inline)) void scan_row(int tx, int v, int count) {
+    clipped += count;
+    const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
+    best = std::max(best, four_rays_best(row, depths.width(), tx, v, count, cell.rays));
+  }
+  __attribute__((always_inline)) std::size_t tile_at(int tx, int ty) const {
+    return static_cast<std::size_t>((ty - y0) / kSearchTileH * tile_cols + (tx - x0) / kTileW);
+  }
+  __attribute__((always_inline)) bool sign_pass();
+  __attribute__((always_inline)) void maximum_pass();
+};
+
 float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, int y0, int x1,
                                         int y1, const CellRays& cell, float best,
                                         std::int64_t* rays) const {
@@ -17,32 +56,25 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
   // that does; when none does, the sign is lower and the second pass takes the
   // exact maximum, each tile bounded by its depth range (the cell's δ-support
   // bounds every ray's part in it).
+  ExactSearch search(*this, depths, cell, x0, y0, x1, y1, best);
   // The depths whose rays can reach the value sought, cell.enough_fixed in Q6
   // (0 or 1: the sign; see_through's near peak): m̂ >= (enough - 1/2) / 64, the
   // rounding's edge.
   const float margin =
       1.0f - (static_cast<float>(cell.enough_fixed) - 0.5f) / static_cast<float>(kCellScale);
-  std::uint16_t sign_lo = 0, sign_hi = 0;
-  codes_reaching(cell.a, cell.b, margin, margin, false, &sign_lo, &sign_hi);
-  std::int64_t clipped = 0;
-  const auto scan_row = [&](int tx, int v, int count) __attribute__((always_inline)) {
-    clipped += count;
-    const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
-    best = std::max(best, four_rays_best(row, depths.width(), tx, v, count, cell.rays));
-  };
-  // Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
-  // only the rows holding such a depth (one vector compare per row), until a ray
-  // reaches the sign; tiles from the middle out.
-  bool passed_over = false;  // some ray was not clipped in pass 1
-  // The tiles' depth ranges, kept for the second pass when the footprint has few
-  // enough tiles (the first pass visits them all when it does not stop early).
-  const int tile_cols = (x1 - x0) / kTileW + 1;
-  const bool keep_ranges = tile_cols * ((y1 - y0) / kSearchTileH + 1) <= kKeptTileRanges;
-  std::array<std::uint32_t, kKeptTileRanges> kept_ranges;
-  const auto tile_at = [&](int tx, int ty) {
-    return static_cast<std::size_t>((ty - y0) / kSearchTileH * tile_cols + (tx - x0) / kTileW);
-  };
-  const bool reached = tiles_middle_out(
+  codes_reaching(cell.a, cell.b, margin, margin, false, &search.sign_lo, &search.sign_hi);
+  search.tile_cols = (x1 - x0) / kTileW + 1;
+  search.keep_ranges = search.tile_cols * ((y1 - y0) / kSearchTileH + 1) <= kKeptTileRanges;
+  if (!search.sign_pass() && search.passed_over) search.maximum_pass();
+  *rays += search.clipped;
+  return search.best;
+}
+
+// Pass 1: only rows of tiles with a depth in [sign_lo, sign_hi], and of those
+// only the rows holding such a depth (one vector compare per row), until a ray
+// reaches the sign; tiles from the middle out. True when one does.
+inline bool ProjectiveIntegrator::ExactSearch::sign_pass() {
+  return tiles_middle_out(
       x0, y0, x1, y1, [&](int tx, int ty, int ex, int ey) __attribute__((always_inline)) {
         std::uint16_t lo_code = 0, hi_code = 0;
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
@@ -65,77 +97,73 @@ float ProjectiveIntegrator::exact_value(const DepthRangeTable& depths, int x0, i
         }
         return false;
       });
-  if (reached) {
-    *rays += clipped;
-    return best;
-  }
-  // Pass 2 (the sign is lower than U's): the exact maximum over every tile that
-  // can beat the best so far; once a ray is known to cross the cell, a tile that
-  // can only add a free value gives its bound instead (it keeps the sign and
-  // stays above the reference's value).
-  if (passed_over) {
-    // Only depths whose rays can beat the best so far need clipping: before any
-    // ray crosses, those reaching a at all (d + Δd(d) >= a; kFar rays are free
-    // across); after, also d - (1 - best) Δd(d) <= b (m̂ = 1 - |δ - d| / Δd above
-    // best somewhere in [a, b]). Widened; the best only grows, so each interval
-    // holds the next.
-    std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kFar;
-    const float widen = 129.0f / 128.0f;
-    float beat_for = kNoRay;  // the best the interval was computed for
-    const auto narrow = [&] {
-      beat_for = best;
-      if (best >= -1.0f) {
-        codes_reaching(cell.a, cell.b, widen, (1.0f - best) * widen, true, &beat_lo, &beat_hi);
-      } else {
-        std::uint16_t unused = 0;
-        codes_reaching(cell.a, cell.b, widen, widen, false, &beat_lo, &unused);
-        beat_hi = DepthRangeTable::kFar;
+}
+
+// Pass 2 (the sign is lower than U's): the exact maximum over every tile that
+// can beat the best so far; once a ray is known to cross the cell, a tile that
+// can only add a free value gives its bound instead (it keeps the sign and
+// stays above the reference's value).
+inline void ProjectiveIntegrator::ExactSearch::maximum_pass() {
+  const ProjectiveIntegrator& pi = integrator;
+  // Only depths whose rays can beat the best so far need clipping: before any
+  // ray crosses, those reaching a at all (d + Δd(d) >= a; kFar rays are free
+  // across); after, also d - (1 - best) Δd(d) <= b (m̂ = 1 - |δ - d| / Δd above
+  // best somewhere in [a, b]). Widened; the best only grows, so each interval
+  // holds the next.
+  std::uint16_t beat_lo = 0, beat_hi = DepthRangeTable::kFar;
+  const float widen = 129.0f / 128.0f;
+  float beat_for = kNoRay;  // the best the interval was computed for
+  const auto narrow = [&] {
+    beat_for = best;
+    if (best >= -1.0f) {
+      pi.codes_reaching(cell.a, cell.b, widen, (1.0f - best) * widen, true, &beat_lo, &beat_hi);
+    } else {
+      std::uint16_t unused = 0;
+      pi.codes_reaching(cell.a, cell.b, widen, widen, false, &beat_lo, &unused);
+      beat_hi = DepthRangeTable::kFar;
+    }
+  };
+  narrow();
+  for (int ty = y0; ty <= y1; ty += kBoundTileH) {
+    for (int tx = x0; tx <= x1; tx += kTileW) {
+      const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kBoundTileH - 1, y1);
+      if (keep_ranges) {
+        // The search tile holding this one: nothing to clip in it, nothing here.
+        const std::uint32_t kept = kept_ranges[tile_at(tx, ty)];
+        const auto lo = static_cast<std::uint16_t>(kept);
+        const auto hi = static_cast<std::uint16_t>(kept >> 16);
+        if (lo > hi || hi < beat_lo || lo > beat_hi) continue;
       }
-    };
-    narrow();
-    for (int ty = y0; ty <= y1; ty += kBoundTileH) {
-      for (int tx = x0; tx <= x1; tx += kTileW) {
-        const int ex = std::min(tx + kTileW - 1, x1), ey = std::min(ty + kBoundTileH - 1, y1);
-        if (keep_ranges) {
-          // The search tile holding this one: nothing to clip in it, nothing here.
-          const std::uint32_t kept = kept_ranges[tile_at(tx, ty)];
-          const auto lo = static_cast<std::uint16_t>(kept);
-          const auto hi = static_cast<std::uint16_t>(kept >> 16);
-          if (lo > hi || hi < beat_lo || lo > beat_hi) continue;
+      std::uint16_t lo_code = 0, hi_code = 0;
+      depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
+      if (lo_code > hi_code || hi_code < beat_lo || lo_code > beat_hi) continue;
+      float bound = std::max(pi.value_for_code(lo_code, cell.a, cell.b),
+                             pi.far_end(lo_code, hi_code, cell.a, cell.b));
+      if (static_cast<float>(hi_code) * pi.code_to_m_ >= cell.a &&
+          static_cast<float>(lo_code) * pi.code_to_m_ <= cell.b)
+        bound = 1.0f;
+      if (bound <= best) continue;
+      if (best >= -1.0f && to_fixed(bound) < 0) {
+        best = bound;
+        narrow();
+        continue;
+      }
+      const int count = ex - tx + 1;
+      // The first pass clipped every half-row holding a code in [sign_lo, sign_hi].
+      const bool seen = hi_code >= sign_lo && lo_code <= sign_hi;
+      for (int v = ty; v <= ey; ++v) {
+        int halves =
+            row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v, beat_lo, beat_hi);
+        if (seen && halves != 0) {
+          halves &= ~row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v, sign_lo,
+                                             sign_hi);
         }
-        std::uint16_t lo_code = 0, hi_code = 0;
-        depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
-        if (lo_code > hi_code || hi_code < beat_lo || lo_code > beat_hi) continue;
-        float bound = std::max(value_for_code(lo_code, cell.a, cell.b),
-                               far_end(lo_code, hi_code, cell.a, cell.b));
-        if (static_cast<float>(hi_code) * code_to_m_ >= cell.a &&
-            static_cast<float>(lo_code) * code_to_m_ <= cell.b)
-          bound = 1.0f;
-        if (bound <= best) continue;
-        if (best >= -1.0f && to_fixed(bound) < 0) {
-          best = bound;
-          narrow();
-          continue;
-        }
-        const int count = ex - tx + 1;
-        // The first pass clipped every half-row holding a code in [sign_lo, sign_hi].
-        const bool seen = hi_code >= sign_lo && lo_code <= sign_hi;
-        for (int v = ty; v <= ey; ++v) {
-          int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
-                                               beat_lo, beat_hi);
-          if (seen && halves != 0) {
-            halves &= ~row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
-                                               sign_lo, sign_hi);
-          }
-          if (halves & 1) scan_row(tx, v, std::min(count, 4));
-          if (halves & 2) scan_row(tx + 4, v, count - 4);
-          if (best > beat_for) narrow();
-        }
+        if (halves & 1) scan_row(tx, v, std::min(count, 4));
+        if (halves & 2) scan_row(tx + 4, v, count - 4);
+        if (best > beat_for) narrow();
       }
     }
   }
-  *rays += clipped;
-  return best;
 }
 
 bool ProjectiveIntegrator::any_ray_crosses(const DepthRangeTable& depths, int x0, int y0, int x1,

@@ -232,6 +232,12 @@ class FeatureMap : public ZoneObserver {
  private:
   bool is_ground_cell(int x, int y, int z) const;
   void compute_terrain(const ZoneSnapshot& zone);
+  // compute_terrain's stages (src/feature_terrain.cpp).
+  void scan_columns(const ZoneSnapshot& zone);
+  void column_surface(const ZoneSnapshot& zone, int x, int y, std::int16_t* surface,
+                      std::int16_t* run_top) const;
+  void keep_surface_windows();
+  void borrow_terrain_where_unseen();
   // ground_top_ from terrain_ and run_top_: the thickness, or the band as measured.
   void compute_ground_top();
   // The band's height about column (x, y) as measured (0: not a surface band), and
@@ -255,6 +261,9 @@ class FeatureMap : public ZoneObserver {
   // image within d_max.
   bool in_view(const CellIndex& min, const CellIndex& max) const;
   bool append_footprint(const Feature& f, FootprintOutput* out) const;
+  // merged()'s parts: the groups (parent_, union-find) and one group's box.
+  void group_touching_features();
+  ObstacleBox box_of_group(std::size_t root_index, FootprintOutput* footprints, std::size_t n);
   Feature* free_slot(double new_relevance);
   bool add_prior_piece(const ZoneKey& zone, const CellIndex& min, const CellIndex& max);
   // The box of world metres [min, max) as world cells cut at the zone faces:

@@ -105,10 +105,23 @@ class LocalGrid {
   }
 
  private:
+  bool clip_to_grid(const Eigen::Vector3f& start, const Eigen::Vector3f& direction, float* t0,
+                    float* t1) const;
   void finish_rows(int radius, RowShare share, int part);
   void blur_x_row(int y, int z, int radius, int part);
   // y (rows) or z (planes), vectorisable over x; the share's sheets only.
   void blur_across(int axis, int radius, RowShare share, int part);
+  struct RowSpan;
+  // One sheet (a fixed coordinate o on the other axis) of blur_across, per kernel.
+  void blur_sheet_121(int axis, int o, int part, RowSpan saved_span[2]);
+  void blur_sheet_wide(int axis, int radius, int o, int part);
+  // Row c of sheet o along `axis` (1: y, 2: z), from the active region's x0.
+  LocalCell* sheet_row(int axis, int c, int o) {
+    return cells_.get() + (axis == 1 ? index(active_lo_[0], c, o) : index(active_lo_[0], o, c));
+  }
+  RowSpan& sheet_span(int axis, int c, int o) {
+    return spans_[axis == 1 ? span_index(c, o) : span_index(o, c)];
+  }
   void free_cells_seen_through();    // the touched region; clears the marks for the next frame
   LocalCell* saved_rows(int part) {  // a part's 2 * kMaxBlurRadius + 1 scratch rows
     return saved_.get() + static_cast<std::size_t>(part) * static_cast<std::size_t>(dims_[0]) *

@@ -81,6 +81,7 @@ class ProjectiveIntegrator {
   // The depth codes whose rays reach [a, b] with m̂ >= 1 - s (see the definition).
   void codes_reaching(float a, float b, float s_lo, float s_hi, bool open_past_second_root,
                       std::uint16_t* lo, std::uint16_t* hi) const;
+  struct ExactSearch;  // its two passes
   float exact_value(const DepthRangeTable& depths, int x0, int y0, int x1, int y1,
                     const CellRays& cell, float best, std::int64_t* rays) const;
   // Whether the ray of some usable pixel of the rectangle reaches into the cell
@@ -115,6 +116,20 @@ class ProjectiveIntegrator {
   };
   void draw_rows(const FrameSetup& f, const DepthRangeTable& depths, RowShare share,
                  LocalGrid& grid, PartResult* result) const;
+  // A cell's tiers (settle_cell's parts, inlined into it).
+  struct CellAt;
+  std::uint16_t centre_code(const FrameSetup& f, const DepthRangeTable& depths, bool quick,
+                            const Eigen::Vector3d& pc, int* looked_up) const;
+  void set_cell_box(const FrameSetup& f, const CellAt& at, CellRays& cell) const;
+  float probe_value(const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at,
+                    const Eigen::Vector3d& pc, const CellRays& cell) const;
+  bool crossed(bool centre_reaches, const FrameSetup& f, const DepthRangeTable& depths,
+               const CellAt& at, const Eigen::Vector3d& pc, CellRays& cell) const;
+  float sign_settled_value(const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at,
+                           const Eigen::Vector3d& pc, CellRays& cell, ProjectiveStats* stats,
+                           int* centre, float* probed) const;
+  float seen_through_value(const FrameSetup& f, const DepthRangeTable& depths, const CellAt& at,
+                           CellRays& cell, ProjectiveStats* stats, float value, float probed) const;
   void settle_cell(const FrameSetup& f, const DepthRangeTable& depths, std::uint8_t block, int x,
                    int y, int z, const Eigen::Vector3d& pc, CellRays& cell, LocalGrid& grid,
                    ProjectiveStats* stats) const;

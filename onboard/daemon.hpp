@@ -15,8 +15,8 @@
 #include "hal/replay/sequence.hpp"
 #include "onboard/vehicle_config.hpp"
 #include "runtime/pipeline.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap::v4l2 {
 class V4l2FrameSource;

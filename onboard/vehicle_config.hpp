@@ -11,7 +11,7 @@
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_pose_source.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
-#include "zonemap/ins_gate.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 namespace zonemap::onboard {
 

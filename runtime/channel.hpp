@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "hal/os/doorbell.hpp"
-#include "zonemap/spsc_queue.hpp"
+#include "zonemap/containers/spsc_queue.hpp"
 
 namespace zonemap::runtime {
 

@@ -21,11 +21,11 @@
 #include "hal/ins/pose_source.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/output/run_outputs.hpp"
-#include "zonemap/config.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/latency_histogram.hpp"
-#include "zonemap/mapper.hpp"
-#include "zonemap/shared_map_inbox.hpp"
+#include "zonemap/common/config.hpp"
+#include "zonemap/containers/latency_histogram.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/features/shared_map_inbox.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap::runtime {
 

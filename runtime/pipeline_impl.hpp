@@ -21,9 +21,9 @@
 #include "hal/os/doorbell.hpp"
 #include "runtime/channel.hpp"
 #include "runtime/pipeline.hpp"
-#include "zonemap/extraction_schedule.hpp"
-#include "zonemap/pose_buffer.hpp"
-#include "zonemap/zone_snapshot.hpp"
+#include "zonemap/features/extraction_schedule.hpp"
+#include "zonemap/pose/pose_buffer.hpp"
+#include "zonemap/zones/zone_snapshot.hpp"
 
 namespace zonemap::runtime {
 

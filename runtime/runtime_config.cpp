@@ -5,7 +5,7 @@
 #include <string>
 
 #include "hal/config/yaml_support.hpp"
-#include "zonemap/projective_integrator.hpp"
+#include "zonemap/integrator/projective_integrator.hpp"
 
 namespace zonemap::runtime {
 namespace {

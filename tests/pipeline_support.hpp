@@ -11,8 +11,8 @@
 #include "hal/replay/sequence.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap::testing {
 

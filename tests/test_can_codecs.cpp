@@ -14,7 +14,7 @@
 #include "hal/can/dbc.hpp"
 #include "hal/can/ins_can.hpp"
 #include "hal/can/obstacle_can.hpp"
-#include "zonemap/geodetic.hpp"
+#include "zonemap/common/geodetic.hpp"
 
 using namespace zonemap;
 using namespace zonemap::can;

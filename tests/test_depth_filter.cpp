@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "tools/sim/scene.hpp"
-#include "zonemap/depth_filter.hpp"
+#include "zonemap/depth/depth_filter.hpp"
 
 namespace zonemap {
 namespace {

@@ -8,9 +8,9 @@
 
 #include "hal/os/allocation_counter.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/quadtree.hpp"
-#include "zonemap/window_min.hpp"
+#include "zonemap/containers/quadtree.hpp"
+#include "zonemap/containers/window_min.hpp"
+#include "zonemap/features/feature_map.hpp"
 
 namespace zonemap {
 namespace {

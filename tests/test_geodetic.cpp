@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "zonemap/geodetic.hpp"
+#include "zonemap/common/geodetic.hpp"
 
 using namespace zonemap;
 

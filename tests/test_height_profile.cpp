@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "zonemap/height_profile.hpp"
+#include "zonemap/outputs/height_profile.hpp"
 
 namespace zonemap {
 namespace {

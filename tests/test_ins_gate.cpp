@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "test_support.hpp"
-#include "zonemap/ins_gate.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 using namespace zonemap;
 

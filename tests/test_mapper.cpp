@@ -9,7 +9,7 @@
 #include "hal/os/allocation_counter.hpp"
 #include "test_support.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap {
 namespace {

@@ -10,7 +10,7 @@
 
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 using namespace zonemap;
 

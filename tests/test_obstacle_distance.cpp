@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 using namespace zonemap;
 

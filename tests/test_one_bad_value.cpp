@@ -20,9 +20,9 @@
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
-#include "zonemap/ins_gate.hpp"
-#include "zonemap/pose_buffer.hpp"
-#include "zonemap/time_watermark.hpp"
+#include "zonemap/common/time_watermark.hpp"
+#include "zonemap/pose/ins_gate.hpp"
+#include "zonemap/pose/pose_buffer.hpp"
 
 namespace zonemap {
 namespace {

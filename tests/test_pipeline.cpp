@@ -26,8 +26,8 @@
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/pose_buffer.hpp"
-#include "zonemap/spsc_queue.hpp"
+#include "zonemap/containers/spsc_queue.hpp"
+#include "zonemap/pose/pose_buffer.hpp"
 
 namespace zonemap {
 namespace {

@@ -12,8 +12,8 @@
 #include "replay_support.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/geodetic.hpp"
+#include "zonemap/common/geodetic.hpp"
+#include "zonemap/features/feature_map.hpp"
 
 namespace zonemap {
 namespace {

@@ -16,7 +16,7 @@
 #include "hal/os/allocation_counter.hpp"
 #include "hal/replay/sequence.hpp"
 #include "test_support.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "hal/os/allocation_counter.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/queries.hpp"
+#include "zonemap/outputs/queries.hpp"
 
 namespace zonemap {
 namespace {

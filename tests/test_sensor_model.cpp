@@ -1,8 +1,8 @@
 // Paper eq. (1), (4), (5) checked against values worked out by hand.
 #include <gtest/gtest.h>
 
-#include "zonemap/camera.hpp"
-#include "zonemap/sensor_model.hpp"
+#include "zonemap/common/camera.hpp"
+#include "zonemap/depth/sensor_model.hpp"
 
 namespace zonemap {
 namespace {

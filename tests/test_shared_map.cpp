@@ -12,9 +12,9 @@
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/lcm/lcm_shared_maps.hpp"
 #include "hal/os/allocation_counter.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/geodetic.hpp"
-#include "zonemap/shared_map_inbox.hpp"
+#include "zonemap/common/geodetic.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/features/shared_map_inbox.hpp"
 
 namespace zonemap {
 namespace {

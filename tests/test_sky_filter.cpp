@@ -14,7 +14,7 @@
 #include "tools/replay/replay_run.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/sky_filter.hpp"
+#include "zonemap/depth/sky_filter.hpp"
 
 namespace zonemap {
 namespace {

@@ -15,9 +15,9 @@
 
 #include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
-#include "zonemap/config.hpp"
-#include "zonemap/ins_gate.hpp"
-#include "zonemap/work_split.hpp"
+#include "zonemap/common/config.hpp"
+#include "zonemap/common/work_split.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 namespace zonemap::testing {
 

@@ -15,7 +15,7 @@
 #include "hal/os/worker_pool.hpp"
 #include "test_support.hpp"
 #include "tools/sim/scene.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap {
 namespace {

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "test_support.hpp"
-#include "zonemap/local_grid.hpp"
-#include "zonemap/zone_map.hpp"
+#include "zonemap/integrator/local_grid.hpp"
+#include "zonemap/zones/zone_map.hpp"
 
 namespace zonemap {
 namespace {

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "tools/sim/scene.hpp"
-#include "zonemap/config.hpp"
-#include "zonemap/zone_snapshot.hpp"
+#include "zonemap/common/config.hpp"
+#include "zonemap/zones/zone_snapshot.hpp"
 
 namespace zonemap {
 namespace {

@@ -16,8 +16,8 @@
 
 #include "hal/can/can_frame.hpp"
 #include "hal/can/can_signals.hpp"
-#include "zonemap/geodetic.hpp"
-#include "zonemap/ins_gate.hpp"
+#include "zonemap/common/geodetic.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 namespace zonemap::can {
 

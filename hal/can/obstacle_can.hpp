@@ -20,7 +20,7 @@
 
 #include "hal/can/can_frame.hpp"
 #include "hal/can/can_signals.hpp"
-#include "zonemap/feature_map.hpp"
+#include "zonemap/features/feature_map.hpp"
 
 namespace zonemap::can {
 

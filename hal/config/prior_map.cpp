@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "zonemap/geodetic.hpp"
+#include "zonemap/common/geodetic.hpp"
 
 namespace zonemap::hal {
 namespace {

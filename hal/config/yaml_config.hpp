@@ -6,8 +6,8 @@
 
 #include <string>
 
-#include "zonemap/camera.hpp"
-#include "zonemap/config.hpp"
+#include "zonemap/common/camera.hpp"
+#include "zonemap/common/config.hpp"
 
 namespace zonemap::hal {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "zonemap/camera.hpp"
+#include "zonemap/common/camera.hpp"
 
 namespace zonemap::hal {
 

@@ -11,10 +11,10 @@
 
 #include <Eigen/Geometry>
 
-#include "zonemap/camera.hpp"
+#include "zonemap/common/camera.hpp"
 
-#include "zonemap/ins_gate.hpp"
-#include "zonemap/pose_track.hpp"
+#include "zonemap/pose/ins_gate.hpp"
+#include "zonemap/pose/pose_track.hpp"
 
 namespace zonemap::hal {
 

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "zonemap/feature_map.hpp"
-#include "zonemap/geodetic.hpp"
-#include "zonemap/ins_gate.hpp"
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/common/geodetic.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 #include "zonemap_lcm/camera_mount_t.hpp"
 #include "zonemap_lcm/health_t.hpp"
 #include "zonemap_lcm/ins_state_t.hpp"

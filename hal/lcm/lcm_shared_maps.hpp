@@ -16,8 +16,8 @@
 
 #include "hal/ins/pose_source.hpp"
 #include "hal/lcm/lcm_link.hpp"
-#include "zonemap/geodetic.hpp"
-#include "zonemap/shared_map_inbox.hpp"
+#include "zonemap/common/geodetic.hpp"
+#include "zonemap/features/shared_map_inbox.hpp"
 #include "zonemap_lcm/obstacle_map_t.hpp"
 
 namespace zonemap::lcm_link {

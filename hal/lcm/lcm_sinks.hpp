@@ -13,7 +13,7 @@
 #include "hal/lcm/lcm_codec.hpp"
 #include "hal/lcm/lcm_link.hpp"
 #include "hal/output/obstacle_sink.hpp"
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 namespace zonemap::lcm_link {
 

@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 namespace zonemap::mavlink {
 

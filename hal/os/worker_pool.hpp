@@ -15,7 +15,7 @@
 
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/doorbell.hpp"
-#include "zonemap/work_split.hpp"
+#include "zonemap/common/work_split.hpp"
 
 namespace zonemap::os {
 

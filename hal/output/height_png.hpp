@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-#include "zonemap/height_profile.hpp"
+#include "zonemap/outputs/height_profile.hpp"
 
 namespace zonemap::hal {
 

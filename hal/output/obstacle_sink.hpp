@@ -10,8 +10,8 @@
 #include <Eigen/Geometry>
 
 #include "hal/output/frame_counters.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 namespace zonemap::hal {
 

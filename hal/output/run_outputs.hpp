@@ -11,9 +11,9 @@
 #include <Eigen/Core>
 
 #include "hal/output/frame_counters.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/mapper.hpp"
-#include "zonemap/zone_map.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/mapping/mapper.hpp"
+#include "zonemap/zones/zone_map.hpp"
 
 namespace zonemap::hal {
 

@@ -5,7 +5,7 @@
 #include <cstdio>
 
 #include "hal/record/foxglove_json.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 namespace zonemap::record {
 namespace {

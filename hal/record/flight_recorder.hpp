@@ -27,9 +27,9 @@
 #include "hal/os/doorbell.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/mcap_writer.hpp"
-#include "zonemap/camera.hpp"
-#include "zonemap/obstacle_distance.hpp"
-#include "zonemap/spsc_queue.hpp"
+#include "zonemap/common/camera.hpp"
+#include "zonemap/containers/spsc_queue.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 namespace zonemap {
 class Mapper;

@@ -11,11 +11,11 @@
 
 #include "hal/frames/frame_source.hpp"
 #include "hal/ins/pose_source.hpp"
-#include "zonemap/camera.hpp"
-#include "zonemap/config.hpp"
-#include "zonemap/ins_gate.hpp"
-#include "zonemap/pose_track.hpp"
-#include "zonemap/time_watermark.hpp"
+#include "zonemap/common/camera.hpp"
+#include "zonemap/common/config.hpp"
+#include "zonemap/common/time_watermark.hpp"
+#include "zonemap/pose/ins_gate.hpp"
+#include "zonemap/pose/pose_track.hpp"
 
 namespace zonemap::replay {
 

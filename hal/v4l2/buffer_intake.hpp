@@ -11,7 +11,7 @@
 #include <string>
 
 #include "hal/frames/frame_source.hpp"
-#include "zonemap/time_watermark.hpp"
+#include "zonemap/common/time_watermark.hpp"
 
 namespace zonemap::v4l2 {
 

@@ -11,7 +11,7 @@
 
 #include "hal/frames/frame_source.hpp"
 #include "hal/v4l2/buffer_intake.hpp"
-#include "zonemap/time_watermark.hpp"
+#include "zonemap/common/time_watermark.hpp"
 
 namespace zonemap::v4l2 {
 

@@ -1,7 +1,7 @@
 // Another vehicle's obstacle_map_t bytes as they arrive from the bus, through the
 // checks and the change of frame into the feature map.
 #include "hal/lcm/lcm_shared_maps.hpp"
-#include "zonemap/feature_map.hpp"
+#include "zonemap/features/feature_map.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const zonemap::lcm_link::SharedMapsConfig config = [] {

@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
 # The layers, as the tree shows them, checked on every project #include:
-#   core      include/zonemap, src        pure computation: includes only the core
+#   core      include/zonemap/<stage>,    pure computation, one folder a stage in the order
+#             src/<stage>                 data flows: common, containers, pose, depth,
+#                                         integrator, zones, mapping, features, outputs. A
+#                                         stage includes only itself and the stages before
+#                                         it; a public header (include/) never an internal
+#                                         one (src/)
 #   HAL       hal/<edge>                  back-ends behind small interfaces: core + HAL,
 #                                         never the runtime or a program
 #   runtime   runtime/                    threads and queues: core + HAL interfaces,
@@ -9,7 +14,7 @@
 #                                         never a desk tool
 #   programs  tools/                      anything
 # plus, inside the HAL: an interface or shared folder (frames, ins, output, os, config,
-# codec) never includes a back-end (replay, v4l2, can, lcm, mavlink, ins_log), and the replay back-end
+# codec) never includes a back-end (replay, v4l2, can, lcm, mavlink, ins_log, record), and the replay back-end
 # (the host HAL) no vehicle link: recorded INS logs reach it through hal/ins's interface.
 # Known debts that break a rule are listed below with their reason; one that no
 # longer occurs fails too, so the list only shrinks.
@@ -20,6 +25,12 @@ cd "${1:?usage: check_includes.sh SOURCE_DIR}"
 # file:included-path pairs that are allowed for now, and why.
 known_debts=(
 )
+
+stages=(common containers pose depth integrator zones mapping features outputs)
+stage_rank() {  # stage name -> its place in the order, or nothing
+  local i
+  for i in "${!stages[@]}"; do [ "${stages[$i]}" = "$1" ] && echo "$i"; done
+}
 
 violations=()
 seen_debts=()
@@ -40,20 +51,43 @@ while IFS= read -r line; do
   [ -n "$inc" ] || continue
   case "$file" in
     include/zonemap/*|src/*)
-      # The core's public headers, or its internal ones beside the sources in src/.
-      case "$inc" in zonemap/*) ;; *) [ -f "src/$inc" ] || check "$file" "$inc" "the core includes only the core" ;; esac ;;
+      # The core's public headers (zonemap/<stage>/...), or its internal ones beside
+      # the sources (src/<stage>/...), of the file's own stage or one before it.
+      rest="${file#include/zonemap/}"
+      rest="${rest#src/}"
+      own="${rest%%/*}"
+      case "$inc" in
+        zonemap/*) target="${inc#zonemap/}" ;;
+        *) target="$inc"
+           [ -f "src/$inc" ] || { check "$file" "$inc" "the core includes only the core"; continue; }
+           case "$file" in include/*) check "$file" "$inc" "a public header never includes an internal one" ;; esac ;;
+      esac
+      target="${target%%/*}"
+      own_rank="$(stage_rank "$own")"
+      target_rank="$(stage_rank "$target")"
+      if [ -z "$own_rank" ]; then
+        check "$file" "$inc" "every core file lies in a stage's folder"
+      elif [ -z "$target_rank" ]; then
+        check "$file" "$inc" "the core includes only the core's stages"
+      elif [ "$target_rank" -gt "$own_rank" ]; then
+        check "$file" "$inc" "a stage includes only the stages before it"
+      fi ;;
     runtime/*)
       case "$inc" in tools/*|onboard/*) check "$file" "$inc" "the runtime never includes a program" ;; esac
-      case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
+      case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*|hal/record/*)
         check "$file" "$inc" "the runtime sees back-ends only through their interfaces" ;; esac ;;
     hal/frames/*|hal/ins/*|hal/output/*|hal/os/*|hal/config/*|hal/codec/*)
       case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
-      case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
+      case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*|hal/record/*)
         check "$file" "$inc" "an interface folder never includes a back-end" ;; esac ;;
     hal/replay/*)
       case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
-      case "$inc" in hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
-        check "$file" "$inc" "the replay back-end needs no vehicle link" ;; esac ;;
+      case "$inc" in hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*|hal/record/*)
+        check "$file" "$inc" "the replay back-end needs no vehicle link nor the recorder" ;; esac ;;
+    hal/record/*)
+      case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac
+      case "$inc" in hal/replay/*|hal/v4l2/*|hal/can/*|hal/lcm/*|hal/mavlink/*|hal/ins_log/*)
+        check "$file" "$inc" "the recorder writes what the interfaces carry: no other back-end" ;; esac ;;
     onboard/*)
       case "$inc" in tools/*) check "$file" "$inc" "the onboard program never includes a desk tool" ;; esac ;;
     hal/*)

@@ -27,7 +27,7 @@
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
-#include "zonemap/geodetic.hpp"
+#include "zonemap/common/geodetic.hpp"
 
 extern char** environ;
 

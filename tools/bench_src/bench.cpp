@@ -29,8 +29,8 @@
 #include "hal/os/worker_pool.hpp"
 #include "hal/replay/sequence.hpp"
 #include "tools/sim/scenarios.hpp"
-#include "zonemap/feature_map.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/features/feature_map.hpp"
+#include "zonemap/mapping/mapper.hpp"
 
 #ifdef ZONEMAP_HAVE_OCTOMAP
 #include <octomap/octomap.h>

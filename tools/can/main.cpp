@@ -10,7 +10,7 @@
 #include "hal/can/dbc.hpp"
 #include "hal/can/ins_can.hpp"
 #include "hal/can/obstacle_can.hpp"
-#include "zonemap/ins_gate.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 namespace {
 

@@ -10,7 +10,7 @@
 
 #include "hal/config/yaml_config.hpp"
 #include "tools/eval/evaluate.hpp"
-#include "zonemap/camera.hpp"
+#include "zonemap/common/camera.hpp"
 
 namespace {
 // Eq. (1)'s Δd at 1 m for SEQUENCE/camera.yaml (Δd = d² times it); 0 when the

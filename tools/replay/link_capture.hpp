@@ -19,8 +19,8 @@
 #include "hal/lcm/lcm_sinks.hpp"
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/mavlink/tlog_writer.hpp"
-#include "zonemap/camera.hpp"
-#include "zonemap/obstacle_distance.hpp"
+#include "zonemap/common/camera.hpp"
+#include "zonemap/outputs/obstacle_distance.hpp"
 
 namespace zonemap::tools {
 

@@ -13,9 +13,9 @@
 #include "hal/replay/sequence.hpp"
 #include "runtime/pipeline.hpp"
 #include "tools/replay/link_capture.hpp"
-#include "zonemap/extraction_schedule.hpp"
-#include "zonemap/height_profile.hpp"
-#include "zonemap/mapper.hpp"
+#include "zonemap/features/extraction_schedule.hpp"
+#include "zonemap/mapping/mapper.hpp"
+#include "zonemap/outputs/height_profile.hpp"
 
 namespace zonemap::tools {
 

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "zonemap/feature_map.hpp"
+#include "zonemap/features/feature_map.hpp"
 
 namespace zonemap::tools {
 

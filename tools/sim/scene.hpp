@@ -10,7 +10,7 @@
 
 #include <Eigen/Geometry>
 
-#include "zonemap/camera.hpp"
+#include "zonemap/common/camera.hpp"
 
 namespace zonemap::sim {
 

@@ -1,0 +1,63 @@
+#include "zonemap/pose/pose_track.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace zonemap {
+namespace {
+
+Eigen::Isometry3d to_isometry(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = q.toRotationMatrix();
+  pose.translation() = p;
+  return pose;
+}
+
+}  // namespace
+
+bool PoseTrack::append(const PoseSample& s) {
+  if (!std::isfinite(s.time_s) || !s.position.allFinite() || !s.attitude.coeffs().allFinite()) {
+    return false;
+  }
+  if (std::fabs(s.attitude.norm() - 1.0) > 1e-3) return false;
+  if (!samples_.empty() && !(s.time_s > samples_.back().time_s)) return false;
+  PoseSample normalised = s;
+  normalised.attitude.normalize();
+  samples_.push_back(normalised);
+  return true;
+}
+
+PoseLookup PoseTrack::lookup(double t, Eigen::Isometry3d* out) const {
+  if (samples_.empty() || !std::isfinite(t)) return PoseLookup::kNoPose;
+  const auto after =
+      std::lower_bound(samples_.begin(), samples_.end(), t,
+                       [](const PoseSample& s, double time) { return s.time_s < time; });
+  if (after != samples_.end() && after->time_s == t) {
+    *out = to_isometry(after->position, after->attitude);
+    return PoseLookup::kInterpolated;
+  }
+  if (after != samples_.begin() && after != samples_.end()) {
+    const PoseSample& a = *(after - 1);
+    const PoseSample& b = *after;
+    if (b.time_s - a.time_s <= max_gap_s_) {
+      const double f = (t - a.time_s) / (b.time_s - a.time_s);
+      *out =
+          to_isometry(a.position + f * (b.position - a.position), a.attitude.slerp(f, b.attitude));
+      return PoseLookup::kInterpolated;
+    }
+  }
+  // No bracketing pair close enough: accept the nearest sample within tolerance.
+  const PoseSample* nearest = nullptr;
+  if (after != samples_.end()) nearest = &*after;
+  if (after != samples_.begin()) {
+    const PoseSample* before = &*(after - 1);
+    if (nearest == nullptr || t - before->time_s < nearest->time_s - t) nearest = before;
+  }
+  if (nearest != nullptr && std::fabs(nearest->time_s - t) <= tolerance_s_) {
+    *out = to_isometry(nearest->position, nearest->attitude);
+    return PoseLookup::kNearest;
+  }
+  return PoseLookup::kNoPose;
+}
+
+}  // namespace zonemap

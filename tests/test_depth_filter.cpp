@@ -54,7 +54,7 @@ TEST(DepthFilter, OneSurfacesNoiseIsAveraged) {
   // fewer on its far side, so about 0.4 (measured 0.41).
   EXPECT_LT(after, 0.45 * before);
   // paper-flight2's 7 x 7 (radius 3): what still joined the outer bushes of a
-  // hedge seen from 33 m and farther was this noise (docs/mapping.md).
+  // hedge seen from 33 m and farther was this noise (docs/mapping/depth-filter.md).
   DepthFilter wider(kW, kH, 3, kResolutionPerCode2);
   const double after_wider = rms_error_mm(filtered(wider, depth), 40.0);
   std::printf("rms error at 40 m: %.0f mm, radius 2 %.0f mm, radius 3 %.0f mm\n", before, after,

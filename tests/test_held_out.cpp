@@ -252,7 +252,7 @@ TEST(HeldOut, KinectFramesAgreeWithTheMapOfTheOthers) {
   print("redkitchen, held-out poses 20 cm along the view", off);
   EXPECT_LT(off.depth_agrees, c.depth_agrees / 4);
   // Measured, not asserted: a 3 deg turn, which none of the three catches (see
-  // docs/mapping.md, "Checked on real data").
+  // docs/mapping/real-stereo.md, "Checked on real data").
   print("redkitchen, held-out poses turned 3 deg",
         held_out_consistency(sequence, config, 5, 2, turned(3.0)));
 }

@@ -50,59 +50,6 @@ std::vector<const Feature*> features_of(const FeatureMap& map, FeatureKind kind)
 
 // --- quadtree -------------------------------------------------------------------
 
-TEST(Quadtree, RoundTripIsIdentical) {
-  QuadtreePool pool(4096, 64);
-  sim::Rng rng(3);
-  for (const auto& [w, h] :
-       std::vector<std::pair<int, int>>{{1, 1}, {3, 5}, {17, 9}, {64, 64}, {33, 2}}) {
-    for (double density : {0.0, 0.3, 0.8, 1.0}) {
-      std::vector<std::uint8_t> in(static_cast<std::size_t>(w) * h);
-      for (auto& c : in) c = rng.uniform() < density ? 1 : 0;
-      QuadNode root;
-      int side = 0;
-      const std::size_t free_before = pool.groups_free();
-      ASSERT_TRUE(pool.build(in.data(), w, h, &root, &side));
-      EXPECT_GE(side, std::max(w, h));
-      std::vector<std::uint8_t> out(in.size(), 7);
-      pool.rasterize(root, side, w, h, out.data());
-      EXPECT_EQ(out, in) << w << "x" << h << " density " << density;
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-          ASSERT_EQ(pool.contains(root, side, x, y), in[static_cast<std::size_t>(y) * w + x] != 0);
-      pool.release(&root);
-      EXPECT_EQ(pool.groups_free(), free_before) << "every node goes back to the pool";
-    }
-  }
-}
-
-TEST(Quadtree, UniformSquaresAreOneNode) {
-  QuadtreePool pool(16, 16);
-  std::vector<std::uint8_t> full(16 * 16, 1);
-  QuadNode root;
-  int side = 0;
-  ASSERT_TRUE(pool.build(full.data(), 16, 16, &root, &side));
-  EXPECT_EQ(root.state, QuadState::kFull);
-  EXPECT_EQ(pool.node_count(root), 1u);
-  // Full but not square: the padding is empty, so the root splits.
-  std::vector<std::uint8_t> wide(16 * 8, 1);
-  ASSERT_TRUE(pool.build(wide.data(), 16, 8, &root, &side));
-  EXPECT_EQ(root.state, QuadState::kMixed);
-  EXPECT_EQ(pool.node_count(root), 5u);
-}
-
-TEST(Quadtree, ExhaustedPoolRefusesAndLeaksNothing) {
-  QuadtreePool pool(2, 64);
-  std::vector<std::uint8_t> checker(32 * 32);
-  for (int i = 0; i < 32 * 32; ++i) {
-    checker[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(((i % 32) + i / 32) % 2);
-  }
-  QuadNode root;
-  int side = 0;
-  EXPECT_FALSE(pool.build(checker.data(), 32, 32, &root, &side));
-  EXPECT_EQ(pool.groups_free(), 2u);
-  EXPECT_EQ(root.state, QuadState::kEmpty);
-}
-
 // --- extraction -----------------------------------------------------------------
 
 TEST(FeatureExtraction, SixConnectivityNotDiagonals) {
@@ -745,38 +692,3 @@ TEST(FeatureStore, ExtractionAndReintegrationDoNotAllocate) {
 
 }  // namespace
 }  // namespace zonemap
-
-// The doubling window minimum is the window's minimum by definition, for every
-// radius (past the plane's size too), odd plane sizes, strips cut short and
-// `none` entries.
-TEST(WindowMin, IsTheWindowsMinimumByDefinition) {
-  const std::int16_t none = INT16_MAX;
-  std::uint32_t state = 12345u;
-  const auto next = [&state] {
-    state = state * 1664525u + 1013904223u;
-    return state >> 8;
-  };
-  for (const auto& [nx, ny] :
-       {std::pair{1, 1}, std::pair{2, 7}, std::pair{40, 3}, std::pair{33, 70}, std::pair{97, 41}}) {
-    for (const int r : {0, 1, 2, 3, 9, 12, 36, 45}) {
-      const std::size_t n = static_cast<std::size_t>(nx) * ny;
-      std::vector<std::int16_t> in(n);
-      for (auto& v : in) v = next() % 5 == 0 ? none : static_cast<std::int16_t>(next() % 200);
-      std::vector<std::int16_t> out(n, -7);
-      std::vector<std::int16_t> buffer(zonemap::window_min_buffer_size(nx, ny, r));
-      zonemap::window_min_plane(in.data(), out.data(), nx, ny, r, none, buffer.data());
-      for (int y = 0; y < ny; ++y) {
-        for (int x = 0; x < nx; ++x) {
-          std::int16_t expected = none;
-          for (int j = std::max(0, y - r); j <= std::min(ny - 1, y + r); ++j) {
-            for (int i = std::max(0, x - r); i <= std::min(nx - 1, x + r); ++i) {
-              expected = std::min(expected, in[static_cast<std::size_t>(j) * nx + i]);
-            }
-          }
-          ASSERT_EQ(out[static_cast<std::size_t>(y) * nx + x], expected)
-              << nx << "x" << ny << " r " << r << " at " << x << "," << y;
-        }
-      }
-    }
-  }
-}

@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/core_test_support.hpp"  // BackwardsSplit
 #include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/common/config.hpp"
@@ -199,19 +200,5 @@ inline std::string write_test_scenario(const std::string& name, const std::strin
   std::ofstream(path) << config;
   return path;
 }
-
-// A split whose parts run one after another, the last first: a part that read
-// what another part writes would see it unwritten.
-class BackwardsSplit final : public WorkSplit {
- public:
-  explicit BackwardsSplit(int parts) : parts_(parts) {}
-  int parts() const override { return parts_; }
-  void run(Job job, void* context) override {
-    for (int p = parts_ - 1; p >= 0; --p) job(context, p, parts_);
-  }
-
- private:
-  int parts_;
-};
 
 }  // namespace zonemap::testing

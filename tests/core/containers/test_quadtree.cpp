@@ -6,27 +6,15 @@
 #include <utility>
 #include <vector>
 
+#include "core_test_support.hpp"
 #include "zonemap/containers/quadtree.hpp"
 
 namespace zonemap {
 namespace {
 
-// A small deterministic generator (the core's tests link the core alone).
-class Lcg {
- public:
-  explicit Lcg(std::uint64_t seed) : state_(seed * 2862933555777941757ULL + 3037000493ULL) {}
-  double uniform() {  // [0, 1)
-    state_ = state_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(state_ >> 11) * (1.0 / 9007199254740992.0);
-  }
-
- private:
-  std::uint64_t state_;
-};
-
 TEST(Quadtree, RoundTripIsIdentical) {
   QuadtreePool pool(4096, 64);
-  Lcg rng(3);
+  testing::Lcg rng(3);
   for (const auto& [w, h] :
        std::vector<std::pair<int, int>>{{1, 1}, {3, 5}, {17, 9}, {64, 64}, {33, 2}}) {
     for (double density : {0.0, 0.3, 0.8, 1.0}) {

@@ -6,44 +6,18 @@
 #include <tuple>
 #include <utility>
 
+#include "core_test_support.hpp"
 #include "zonemap/common/work_split.hpp"
 #include "zonemap/depth/depth_range_table.hpp"
 
 namespace zonemap {
 namespace {
 
-// A small deterministic generator (the core's tests link the core alone).
-class Lcg {
- public:
-  explicit Lcg(std::uint64_t seed) : state_(seed * 2862933555777941757ULL + 3037000493ULL) {}
-  double uniform() {  // [0, 1)
-    state_ = state_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(state_ >> 11) * (1.0 / 9007199254740992.0);
-  }
-
- private:
-  std::uint64_t state_;
-};
-
-// Runs a split's parts one after the other, last first: any order must give the
-// same table.
-class BackwardsSplit final : public WorkSplit {
- public:
-  explicit BackwardsSplit(int parts) : parts_(parts) {}
-  int parts() const override { return parts_; }
-  void run(Job job, void* context) override {
-    for (int p = parts_ - 1; p >= 0; --p) job(context, p, parts_);
-  }
-
- private:
-  int parts_;
-};
-
 TEST(DepthRangeTable, RangesMatchBruteForce) {
   // Odd sizes so that squares are cut at the right and bottom edges; missing,
   // far and real codes mixed, with whole missing patches. Built whole and in
   // three bands of rows.
-  BackwardsSplit three(3);
+  testing::BackwardsSplit three(3);
   for (const auto& [width, height, split] : {std::tuple<int, int, WorkSplit*>{37, 23, nullptr},
                                              {200, 130, nullptr},
                                              {1, 9, nullptr},
@@ -51,7 +25,7 @@ TEST(DepthRangeTable, RangesMatchBruteForce) {
                                              {200, 130, &three},
                                              {1, 9, &three}}) {
     DepthRangeTable table(width, height);
-    Lcg rng(static_cast<std::uint64_t>(width * 1000 + height));
+    testing::Lcg rng(static_cast<std::uint64_t>(width * 1000 + height));
     for (int i = 0; i < width * height; ++i) {
       const double r = rng.uniform();
       table.base()[i] = r < 0.2   ? DepthRangeTable::kMissing

@@ -22,18 +22,6 @@
 
 namespace zonemap::testing {
 
-// A small map in the paper's geometry (environment centred on the camera, as the
-// zone and mapper tests draw it): 1 m cells, 10 x 10 x 4 zones, d 1..8 m.
-inline MapConfig small_centred_config() {
-  MapConfig config;
-  config.cell_size_m = 1.0;
-  config.zone_cells = {10, 10, 4};
-  config.d_min_m = 1.0;
-  config.d_max_m = 8.0;
-  config.placement = MapConfig::Placement::kCentred;
-  return config;
-}
-
 class TempDir {
  public:
   TempDir() {
@@ -70,16 +58,6 @@ inline std::string read_text(const std::string& path) {
 }
 inline void write_text(const std::string& path, const std::string& text) {
   std::ofstream(path) << text;
-}
-
-// A plausible INS solution at time t and position p (valid flags, 0.3 m sigma).
-inline InsSolution valid_at(double t, const Eigen::Vector3d& p) {
-  InsSolution s;
-  s.time_s = t;
-  s.position_m = p;
-  s.attitude_valid = s.position_valid = true;
-  s.position_sigma_m = 0.3;
-  return s;
 }
 
 // A copy of a sequence with every pose turned about the vertical by 180 degrees:

@@ -1,10 +1,15 @@
 // What the core's tests share, from the core alone: a small deterministic
-// generator and a split that runs its parts last first.
+// generator, a split that runs its parts last first, a small centred config and
+// a valid INS solution.
 #pragma once
 
 #include <cstdint>
 
+#include <Eigen/Geometry>
+
+#include "zonemap/common/config.hpp"
 #include "zonemap/common/work_split.hpp"
+#include "zonemap/pose/ins_gate.hpp"
 
 namespace zonemap::testing {
 
@@ -33,5 +38,27 @@ class BackwardsSplit final : public WorkSplit {
  private:
   int parts_;
 };
+
+// A small map in the paper's geometry (environment centred on the camera, as the
+// zone and mapper tests draw it): 1 m cells, 10 x 10 x 4 zones, d 1..8 m.
+inline MapConfig small_centred_config() {
+  MapConfig config;
+  config.cell_size_m = 1.0;
+  config.zone_cells = {10, 10, 4};
+  config.d_min_m = 1.0;
+  config.d_max_m = 8.0;
+  config.placement = MapConfig::Placement::kCentred;
+  return config;
+}
+
+// A plausible INS solution at time t and position p (valid flags, 0.3 m sigma).
+inline InsSolution valid_at(double t, const Eigen::Vector3d& p) {
+  InsSolution s;
+  s.time_s = t;
+  s.position_m = p;
+  s.attitude_valid = s.position_valid = true;
+  s.position_sigma_m = 0.3;
+  return s;
+}
 
 }  // namespace zonemap::testing

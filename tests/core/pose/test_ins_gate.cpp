@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "test_support.hpp"
+#include "core_test_support.hpp"
 #include "zonemap/pose/ins_gate.hpp"
 
 using namespace zonemap;

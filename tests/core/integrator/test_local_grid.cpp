@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "test_support.hpp"
+#include "core_test_support.hpp"
 #include "zonemap/integrator/local_grid.hpp"
 #include "zonemap/zones/zone_map.hpp"
 

@@ -23,7 +23,8 @@ PARTS = [
     ("range weighting", r"weight_occupancy_by_range"),
     ("fusion, zones", r"ZoneMap::|LocalGrid::|memset"),
     ("halo trim", r"PeakTrim::"),
-    ("ground band", r"FeatureMap::(compute_terrain|compute_ground_top|band_)|window_min"),
+    ("ground band", r"FeatureMap::(compute_terrain|scan_columns|column_surface|"
+     r"keep_surface_windows|borrow_terrain_where_unseen|compute_ground_top|band_)|window_min"),
     ("extraction: boxes", r"FeatureMap::|ZoneSnapshot::|Quadtree|HeightProfile"),
     ("other", r""),
 ]

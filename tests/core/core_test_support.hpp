@@ -3,6 +3,8 @@
 // a valid INS solution.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include <Eigen/Geometry>
@@ -19,6 +21,11 @@ class Lcg {
   double uniform() {  // [0, 1)
     state_ = state_ * 6364136223846793005ULL + 1442695040888963407ULL;
     return static_cast<double>(state_ >> 11) * (1.0 / 9007199254740992.0);
+  }
+  double gaussian() {  // N(0, 1), Box-Muller
+    const double u1 = std::max(uniform(), 1e-300);
+    const double u2 = uniform();
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
   }
 
  private:

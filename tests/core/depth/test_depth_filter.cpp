@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "tools/sim/scene.hpp"
+#include "core_test_support.hpp"
 #include "zonemap/depth/depth_filter.hpp"
 
 namespace zonemap {
@@ -20,7 +20,7 @@ constexpr float kResolutionPerCode2 = 0.25f / (0.30f * 671.0f * 1000.0f);
 constexpr int kW = 64;
 constexpr int kH = 48;
 
-std::uint16_t noisy(sim::Rng& rng, double depth_m) {
+std::uint16_t noisy(testing::Lcg& rng, double depth_m) {
   const double sigma = depth_m * depth_m * 0.25 / (0.30 * 671.0);  // eq. (1)
   const long code = std::lround((depth_m + sigma * rng.gaussian()) * 1000.0);
   return static_cast<std::uint16_t>(std::clamp(code, 1L, 65535L));
@@ -43,7 +43,7 @@ double rms_error_mm(const std::vector<std::uint16_t>& depth, double truth_m) {
 }
 
 TEST(DepthFilter, OneSurfacesNoiseIsAveraged) {
-  sim::Rng rng(3);
+  testing::Lcg rng(3);
   std::vector<std::uint16_t> depth(kW * kH);
   for (auto& d : depth) d = noisy(rng, 40.0);
   DepthFilter filter(kW, kH, 2, kResolutionPerCode2);
@@ -76,7 +76,7 @@ TEST(DepthFilter, EdgesThinThingsAndMissingDepthStay) {
 }
 
 TEST(DepthFilter, RowsAskedWithGapsAreTheRowsInOrder) {
-  sim::Rng rng(9);
+  testing::Lcg rng(9);
   std::vector<std::uint16_t> depth(kW * kH);
   for (auto& d : depth) d = rng.uniform() < 0.1 ? 0 : noisy(rng, 30.0);
   DepthFilter filter(kW, kH, 2, kResolutionPerCode2);
@@ -119,7 +119,7 @@ TEST(DepthFilter, EightLanesAtATimeAreTheDefinition) {
   // depths whose gate reaches the cap (62 m: 2 Δd 9.5 m, the cap at r = 2 6.5 m)
   // and depths at the top of the codes (64 m: windows past 65535), every radius.
   const double kDepths[4] = {12.0, 45.0, 62.0, 64.0};
-  sim::Rng rng(21);
+  testing::Lcg rng(21);
   for (const int w : {61, 64, 9}) {
     for (int r = 1; r <= kMaxDepthFilterRadius; ++r) {
       const int h = 23;

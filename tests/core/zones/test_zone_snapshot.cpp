@@ -6,7 +6,7 @@
 #include <array>
 #include <vector>
 
-#include "tools/sim/scene.hpp"
+#include "core_test_support.hpp"
 #include "zonemap/common/config.hpp"
 #include "zonemap/zones/zone_snapshot.hpp"
 
@@ -21,7 +21,7 @@ TEST(ZoneSnapshot, BitsAndColumnsMatchTheZoneCellByCell) {
     const int nx = dims[0], ny = dims[1], nz = dims[2];
     const std::size_t n = static_cast<std::size_t>(nx) * ny * nz;
     std::vector<FusedCell> cells(n);
-    sim::Rng rng(77);
+    testing::Lcg rng(77);
     for (std::size_t i = 0; i < n; ++i) {
       const double r = rng.uniform();
       cells[i] = r < 0.4 ? 0 : static_cast<FusedCell>(static_cast<int>(rng.uniform() * 400) - 200);
@@ -71,7 +71,7 @@ TEST(PeakTrim, KeepsTheCellsHoldingTheFractionOfTheirNeighbourhoodsPeak) {
   const std::array<int, 3> dims{17, 9, 7};
   const std::size_t n = 17 * 9 * 7;
   std::vector<FusedCell> cells(n);
-  sim::Rng rng(5);
+  testing::Lcg rng(5);
   for (std::size_t i = 0; i < n; ++i) {
     cells[i] = rng.uniform() < 0.5 ? 0 : static_cast<FusedCell>(rng.uniform() * 3000 - 500);
   }

@@ -13,7 +13,7 @@
 
 #include <Eigen/Geometry>
 
-#include "core/core_test_support.hpp"  // BackwardsSplit
+#include "core/core_test_support.hpp"  // the split, small config, INS solution
 #include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "zonemap/common/config.hpp"

@@ -1,39 +1,43 @@
 // The counters the pipeline reports: the health message's (filled on the mapping
-// and extraction threads, completed on the output thread) and stats.json's.
+// and extraction stages, completed on the output stage) and stats.json's.
 #include <algorithm>
 
-#include "runtime/pipeline_impl.hpp"
+#include "runtime/extraction_stage.hpp"
+#include "runtime/mapping_stage.hpp"
 
 namespace zonemap::runtime {
 
-void Pipeline::Impl::fill_health(hal::HealthSnapshot* h, const PipelineStats& s,
-                                 const os::AllocationCounts& allocations) {
+// The mapping stage's part, with the acquisition's and the INS stage's counts.
+void MappingStage::fill_health(hal::HealthSnapshot* h,
+                               const os::AllocationCounts& allocations) const {
+  const PipelineStats& s = stats_;
+  const SharedInsCounters& ins = links_.ins;
   *h = hal::HealthSnapshot{};
-  h->uptime_s = os::seconds_since(started);
-  h->frames_in = shared_frames_in.load(std::memory_order_relaxed);
+  h->uptime_s = os::seconds_since(links_.started);
+  h->frames_in = links_.acquired.frames_in.load(std::memory_order_relaxed);
   h->frames_mapped = s.frames_mapped;
-  h->frames_rejected = shared_rejected.load(std::memory_order_relaxed) + s.frames_rejected;
+  h->frames_rejected = links_.acquired.rejected.load(std::memory_order_relaxed) + s.frames_rejected;
   h->frames_skipped_no_pose = s.frames_skipped_no_pose;
   h->dropped_mapper_behind = s.dropped_mapper_behind;
-  h->dropped_pool_full = shared_pool_full.load(std::memory_order_relaxed);
+  h->dropped_pool_full = links_.acquired.pool_full.load(std::memory_order_relaxed);
   h->pose_waits = s.pose_waits;
   h->frames_ground_below_environment = s.frames_ground_below_environment;
   h->outputs_skipped = s.outputs_skipped;
-  h->poses_in = ins_counters.poses_out.load(std::memory_order_relaxed);
-  h->poses_rejected = ins_counters.rejected.load(std::memory_order_relaxed) +
-                      ins_counters.malformed.load(std::memory_order_relaxed);
+  h->poses_in = ins.poses_out.load(std::memory_order_relaxed);
+  h->poses_rejected =
+      ins.rejected.load(std::memory_order_relaxed) + ins.malformed.load(std::memory_order_relaxed);
   h->heap_allocations_after_init = allocations.allocations;
   h->mapping_ms_p50 = s.mapping.percentile(0.50);
   h->mapping_ms_p99 = s.mapping.percentile(0.99);
-  h->zones_allocated = static_cast<std::int32_t>(mapper.zones().zones_allocated());
+  h->zones_allocated = static_cast<std::int32_t>(mapper_.zones().zones_allocated());
   // The wire carries these by name (health_t's named list, zonemap.Health).
   h->add("pose_waits", h->pose_waits);
   h->add("frames_ground_below_environment", h->frames_ground_below_environment);
   h->add("outputs_skipped", h->outputs_skipped);
-  h->add("ins_messages", ins_counters.messages.load(std::memory_order_relaxed));
-  h->add("ins_malformed", ins_counters.malformed.load(std::memory_order_relaxed));
-  h->add("ins_link_errors", ins_counters.link_errors.load(std::memory_order_relaxed));
-  h->add("ins_reanchors", ins_counters.reanchors.load(std::memory_order_relaxed));
+  h->add("ins_messages", ins.messages.load(std::memory_order_relaxed));
+  h->add("ins_malformed", ins.malformed.load(std::memory_order_relaxed));
+  h->add("ins_link_errors", ins.link_errors.load(std::memory_order_relaxed));
+  h->add("ins_reanchors", ins.reanchors.load(std::memory_order_relaxed));
   h->add("dropped_mapper_behind", h->dropped_mapper_behind);
   h->add("dropped_pool_full", h->dropped_pool_full);
   h->add("extractions_deferred", s.extractions_deferred);
@@ -53,19 +57,19 @@ void count_sky(const FrameReport& report, PipelineStats* s) {
       std::max<std::int64_t>(s->sky_refused_max_frame, report.pixels_sky_refused);
 }
 
-// The feature map's part, on the extraction thread (which owns it).
-void Pipeline::Impl::fill_feature_health(hal::HealthSnapshot* h) {
-  h->features = static_cast<std::int32_t>(features.count());
-  const FeatureCounters& fc = features.counters();
+// The feature map's part, on the extraction stage (which owns it).
+void ExtractionStage::fill_feature_health(hal::HealthSnapshot* h) const {
+  h->features = static_cast<std::int32_t>(features_.count());
+  const FeatureCounters& fc = features_.counters();
   h->add("features_evicted", fc.features_evicted);
   h->add("features_dropped", fc.features_dropped);
   h->add("feature_shapes_truncated", fc.shapes_truncated);
-  if (options.shared_maps != nullptr) {
+  if (options_.shared_maps != nullptr) {
     h->add("shared_updates", fc.shared_updates);
     h->add("shared_boxes_added", fc.shared_added);
     h->add("shared_boxes_removed", fc.shared_removed);
     h->add("shared_boxes_dropped", fc.shared_dropped);
-    h->add("shared_maps_no_slot", options.shared_maps->dropped());
+    h->add("shared_maps_no_slot", options_.shared_maps->dropped());
   }
 }
 

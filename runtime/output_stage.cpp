@@ -1,46 +1,66 @@
-// The output thread: each filled output buffer to every sink, the end-to-end
-// latency against the frame's deadline, the health message once a health period,
-// and the sinks' ticks (heartbeats) while no update comes.
+#include "runtime/output_stage.hpp"
+
 #include "hal/os/realtime.hpp"
-#include "runtime/pipeline_impl.hpp"
 
 namespace zonemap::runtime {
 
-hal::ObstacleUpdate Pipeline::Impl::OutputBuffer::update(bool world_z_up) const {
-  hal::ObstacleUpdate u;
-  u.time_s = time_s;
-  u.world_T_body = world_T_body;
-  u.world_z_up = world_z_up;
-  u.boxes = boxes.data();
-  u.count = count;
-  u.rects = rects.data();
-  u.rect_offsets = rect_offsets.data();
-  u.rect_counts = rect_counts.data();
-  u.sectors_observed = sectors_observed;
-  return u;
+OutputStage::OutputStage(Links& links, std::span<hal::ObstacleSink* const> sinks,
+                         const PipelineOptions& options)
+    : links_(links), sinks_(sinks.begin(), sinks.end()), options_(options) {}
+
+void OutputStage::run() {
+  os::AllocationScope scope;
+  while (true) {
+    const std::uint32_t out = next_output();
+    if (out == kEndOfStream) break;
+    publish(links_.outputs[out], scope);
+    push_waiting(links_.out_free, out, links_.output_bell);
+  }
+  const os::AllocationCounts counted = scope.counted();
+  stats_.output_thread_allocations = counted.allocations;
+  stats_.output_thread_frees = counted.frees;
 }
 
-// The next filled output buffer (or kEndOfStream); while none comes the sinks get their
-// tick every ObstacleSink::kTickPeriodS (asleep in between, woken by a push).
-std::uint32_t Pipeline::Impl::next_output() {
+// The next filled output buffer (or kEndOfStream); while none comes the sinks get
+// their tick every ObstacleSink::kTickPeriodS (asleep in between, woken by a push).
+std::uint32_t OutputStage::next_output() {
   std::uint32_t out = kEndOfStream;
-  while (!out_filled.pop(&out)) {
-    const std::uint32_t ticket = output_bell.ticket();
-    if (out_filled.pop(&out)) break;
-    for (hal::ObstacleSink* sink : sinks) sink->tick(os::seconds_since(started));
-    if (sinks.empty()) {
-      output_bell.wait(ticket);
+  while (!links_.out_filled.pop(&out)) {
+    const std::uint32_t ticket = links_.output_bell.ticket();
+    if (links_.out_filled.pop(&out)) break;
+    for (hal::ObstacleSink* sink : sinks_) sink->tick(os::seconds_since(links_.started));
+    if (sinks_.empty()) {
+      links_.output_bell.wait(ticket);
     } else {
-      output_bell.wait_until(ticket, os::after_seconds(hal::ObstacleSink::kTickPeriodS));
+      links_.output_bell.wait_until(ticket, os::after_seconds(hal::ObstacleSink::kTickPeriodS));
     }
   }
-  for (hal::ObstacleSink* sink : sinks) sink->tick(os::seconds_since(started));
+  for (hal::ObstacleSink* sink : sinks_) sink->tick(os::seconds_since(links_.started));
   return out;
 }
 
+// An update to every sink, its latency against the deadline, and the health
+// message when a health period has passed.
+void OutputStage::publish(OutputBuffer& buffer, const os::AllocationScope& scope) {
+  PipelineStats& s = stats_;
+  const double now = os::seconds_since(links_.started);
+  const hal::ObstacleUpdate update = buffer.update(options_.world_z_up);
+  for (hal::ObstacleSink* sink : sinks_) sink->publish(update, now);
+  const double ms = os::ms_between(buffer.acquired, Clock::now());
+  s.end_to_end.record(ms);
+  if (ms > options_.frame_period_s * 1000.0) ++s.deadline_misses;
+  ++s.outputs_published;
+  if (!sinks_.empty() && now - last_health_s_ >= options_.health_period_s) {
+    last_health_s_ = now;
+    publish_health(buffer, scope, now);
+    ++s.health_published;
+  }
+}
+
 // The output side's figures added to the mapping side's counters in the buffer.
-void Pipeline::Impl::publish_health(OutputBuffer& buffer, const PipelineStats& s,
-                                    const os::AllocationScope& scope, double now) {
+void OutputStage::publish_health(OutputBuffer& buffer, const os::AllocationScope& scope,
+                                 double now) {
+  const PipelineStats& s = stats_;
   hal::HealthSnapshot& h = buffer.health;
   h.time_s = buffer.time_s;
   h.deadline_misses = s.deadline_misses;
@@ -48,38 +68,10 @@ void Pipeline::Impl::publish_health(OutputBuffer& buffer, const PipelineStats& s
   h.end_to_end_ms_p99 = s.end_to_end.percentile(0.99);
   h.end_to_end_ms_p999 = s.end_to_end.percentile(0.999);
   h.heap_allocations_after_init += scope.counted().allocations;
-  h.static_memory_bytes = static_cast<std::int64_t>(static_bytes);
+  h.static_memory_bytes = static_cast<std::int64_t>(links_.static_bytes);
   h.rss_bytes = os::resident_bytes();
-  for (hal::ObstacleSink* sink : sinks) sink->report(&h);
-  for (hal::ObstacleSink* sink : sinks) sink->publish_health(h, now);
-}
-
-void Pipeline::Impl::output() {
-  PipelineStats& s = output_stats;
-  realtime(options.priority_output, options.cpu_output, &s, "output");
-  os::AllocationScope scope;
-  double last_health_s = -1e300;
-  while (true) {
-    const std::uint32_t out = next_output();
-    if (out == kEndOfStream) break;
-    OutputBuffer& buffer = outputs[out];
-    const double now = os::seconds_since(started);
-    const hal::ObstacleUpdate update = buffer.update(options.world_z_up);
-    for (hal::ObstacleSink* sink : sinks) sink->publish(update, now);
-    const double ms = os::ms_between(buffer.acquired, Clock::now());
-    s.end_to_end.record(ms);
-    if (ms > options.frame_period_s * 1000.0) ++s.deadline_misses;
-    ++s.outputs_published;
-    if (!sinks.empty() && now - last_health_s >= options.health_period_s) {
-      last_health_s = now;
-      publish_health(buffer, s, scope, now);
-      ++s.health_published;
-    }
-    push_waiting(out_free, out, output_bell);
-  }
-  const os::AllocationCounts counted = scope.counted();
-  s.output_thread_allocations = counted.allocations;
-  s.output_thread_frees = counted.frees;
+  for (hal::ObstacleSink* sink : sinks_) sink->report(&h);
+  for (hal::ObstacleSink* sink : sinks_) sink->publish_health(h, now);
 }
 
 }  // namespace zonemap::runtime

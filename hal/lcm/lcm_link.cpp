@@ -186,11 +186,11 @@ hal::PoseSourceCounters LcmLogPoseSource::counters() const {
 
 LcmPublisher::LcmPublisher(const std::string& url, bool background_restart)
     : connection_(url), background_(background_restart) {
-  if (background_) keeper_ = std::thread([this] { keep(); });
+  if (background_) keeper_.start({"zonemap-lcm-keep"}, [this] { keep(); });
 }
 
 LcmPublisher::~LcmPublisher() {
-  if (keeper_.joinable()) {
+  if (keeper_.started()) {
     stop_.store(true);
     wake_.notify_all();
     keeper_.join();

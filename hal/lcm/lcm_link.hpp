@@ -10,10 +10,10 @@
 #include <cstdint>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include "hal/ins/pose_source.hpp"
 #include "hal/lcm/lcm_log_reader.hpp"
+#include "hal/os/task.hpp"
 
 typedef struct _lcm_t lcm_t;
 typedef struct _lcm_recv_buf_t lcm_recv_buf_t;
@@ -122,7 +122,7 @@ class LcmPublisher final : public LcmMessageOut {
   std::atomic<std::int64_t> keeper_failures_{0};
   std::mutex mutex_;  // the keeper's sleep only, never taken by the publisher
   std::condition_variable wake_;
-  std::thread keeper_;
+  os::Task keeper_;
   std::int64_t published_ = 0, failed_ = 0, provider_down_ = 0;
 };
 

@@ -131,13 +131,13 @@ LcmSharedMapReceiver::~LcmSharedMapReceiver() {
 }
 
 void LcmSharedMapReceiver::start() {
-  if (thread_.joinable() || subscriptions_.empty()) return;
-  thread_ = std::thread([this] { run(); });
+  if (thread_.started() || subscriptions_.empty()) return;
+  thread_.start({"zonemap-maps-in"}, [this] { run(); });
 }
 
 void LcmSharedMapReceiver::stop() {
   stop_.store(true);
-  if (thread_.joinable()) thread_.join();
+  if (thread_.started()) thread_.join();
 }
 
 void LcmSharedMapReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* user) {

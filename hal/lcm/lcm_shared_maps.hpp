@@ -11,11 +11,11 @@
 #include <atomic>
 #include <cstdint>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "hal/ins/pose_source.hpp"
 #include "hal/lcm/lcm_link.hpp"
+#include "hal/os/task.hpp"
 #include "zonemap/common/geodetic.hpp"
 #include "zonemap/features/shared_map_inbox.hpp"
 #include "zonemap_lcm/obstacle_map_t.hpp"
@@ -95,7 +95,7 @@ class LcmSharedMapReceiver {
   std::vector<Subscription> subscriptions_;
   SharedMapUpdate* held_ = nullptr;  // the receiving thread's slot, between messages
   std::atomic<bool> stop_{false};
-  std::thread thread_;
+  os::Task thread_;
   std::atomic<std::int64_t> start_failures_{0};
 };
 

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string>
 
 #include "hal/os/clock.hpp"
-#include "hal/os/realtime.hpp"
 
 namespace zonemap::os {
 namespace {
@@ -33,36 +33,27 @@ bool spin_while(Waiting&& waiting) {
 
 }  // namespace
 
-WorkerPool::WorkerPool(const WorkerOptions& options) : parts_(std::max(1, options.parts)) {
-  std::vector<std::string> started(static_cast<std::size_t>(parts_));
-  running_.store(parts_ - 1, std::memory_order_seq_cst);
-  threads_.reserve(static_cast<std::size_t>(parts_ - 1));
+WorkerPool::WorkerPool(const WorkerOptions& options)
+    : parts_(std::max(1, options.parts)),
+      workers_(std::make_unique<Task[]>(static_cast<std::size_t>(parts_ - 1))) {
   for (int part = 1; part < parts_; ++part) {
     const std::size_t slot = static_cast<std::size_t>(part);
-    const int cpu = slot - 1 < options.cpus.size() ? options.cpus[slot - 1] : -1;
-    threads_.emplace_back([this, part, cpu, priority = options.priority, &started, slot] {
-      if (priority > 0 || cpu >= 0) set_thread_realtime(priority, cpu, &started[slot]);
-      // Started: the constructor may go on (and read `started`).
-      if (running_.fetch_sub(1, std::memory_order_seq_cst) == 1) done_.ring();
-      work(part);
-    });
-  }
-  // Every worker has set itself up before the first job (and before `started`
-  // goes out of scope).
-  for (;;) {
-    const std::uint32_t ticket = done_.ticket();
-    if (running_.load(std::memory_order_seq_cst) == 0) break;
-    done_.wait(ticket);
-  }
-  for (const std::string& w : started) {
-    if (!w.empty()) warnings_.push_back("mapping worker: " + w);
+    const std::string name = "zonemap-map-" + std::to_string(part);  // as `top -H` shows it
+    TaskSettings settings;
+    settings.name = name.c_str();
+    settings.priority = options.priority;
+    settings.cpu = slot - 1 < options.cpus.size() ? options.cpus[slot - 1] : -1;
+    // Each worker has set itself up when start() returns: before the first job.
+    Task& worker = workers_[slot - 1];
+    worker.start(settings, [this, part] { work(part); });
+    if (!worker.warning().empty()) warnings_.push_back(worker.warning());
   }
 }
 
 WorkerPool::~WorkerPool() {
   stopping_.store(true, std::memory_order_seq_cst);
   start_.ring();
-  for (std::thread& t : threads_) t.join();
+  for (int w = 0; w + 1 < parts_; ++w) workers_[static_cast<std::size_t>(w)].join();
 }
 
 void WorkerPool::run(Job job, void* context) {

@@ -9,12 +9,13 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "hal/os/allocation_counter.hpp"
 #include "hal/os/doorbell.hpp"
+#include "hal/os/task.hpp"
 #include "zonemap/common/work_split.hpp"
 
 namespace zonemap::os {
@@ -47,7 +48,7 @@ class WorkerPool final : public WorkSplit {
   void work(int part);
 
   int parts_;
-  std::vector<std::thread> threads_;
+  std::unique_ptr<Task[]> workers_;  // part w on workers_[w - 1]
   std::vector<std::string> warnings_;
   // The job of the current round; written before `round_` is published.
   Job job_ = nullptr;

@@ -15,11 +15,11 @@ MapSaver::~MapSaver() {
 }
 
 void MapSaver::start() {
-  if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+  if (!thread_.started()) thread_.start({"zonemap-saver"}, [this] { run(); });
 }
 
 void MapSaver::stop() {
-  if (!thread_.joinable()) return;
+  if (!thread_.started()) return;
   stopping_.store(true, std::memory_order_seq_cst);
   work_.ring();
   thread_.join();

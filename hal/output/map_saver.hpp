@@ -10,10 +10,10 @@
 #include <atomic>
 #include <cstdint>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "hal/os/doorbell.hpp"
+#include "hal/os/task.hpp"
 #include "hal/output/obstacle_sink.hpp"
 
 namespace zonemap::hal {
@@ -45,7 +45,7 @@ class MapSaver final : public ObstacleSink {
   std::atomic<bool> full_{false};  // boxes_ holds a copy the writer has not written yet
   std::atomic<bool> stopping_{false};
   os::Doorbell work_;
-  std::thread thread_;
+  os::Task thread_;
   std::atomic<std::int64_t> saves_{0}, busy_{0}, failed_{0};
 };
 

@@ -184,12 +184,12 @@ bool FlightRecorder::open(const RecorderConfig& config, std::string* error) {
   m.depth_channel = channel(raw_image_schema(), "/zonemap/depth");
   m.health_channel = channel(health_schema(), "/zonemap/health");
   stopping_.store(false);
-  thread_ = std::thread([this] { run(); });
+  thread_.start({"zonemap-record"}, [this] { run(); });
   return true;
 }
 
 bool FlightRecorder::close(std::string* error) {
-  if (!thread_.joinable()) return true;
+  if (!thread_.started()) return true;
   stopping_.store(true, std::memory_order_release);
   work_.ring();
   thread_.join();
@@ -221,7 +221,7 @@ bool FlightRecorder::record_pose(double time_s, const Eigen::Isometry3d& world_T
   const Eigen::Quaterniond q = rotation_of(world_T_body);
   const Eigen::Vector3d p = world_T_body.translation();
   const PoseItem item{time_s, {p.x(), p.y(), p.z()}, {q.w(), q.x(), q.y(), q.z()}};
-  if (!thread_.joinable() || !impl_->poses.push(item)) {
+  if (!thread_.started() || !impl_->poses.push(item)) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -232,7 +232,7 @@ bool FlightRecorder::record_pose(double time_s, const Eigen::Isometry3d& world_T
 bool FlightRecorder::record_depth(double time_s, const std::uint16_t* depth) {
   Impl& m = *impl_;
   std::uint32_t index = 0;
-  DepthSlot* slot = thread_.joinable() ? m.depth.acquire(&index) : nullptr;
+  DepthSlot* slot = thread_.started() ? m.depth.acquire(&index) : nullptr;
   if (slot == nullptr || depth == nullptr) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
@@ -252,7 +252,7 @@ bool FlightRecorder::record_depth(double time_s, const std::uint16_t* depth) {
 bool FlightRecorder::record_occupied(double time_s, Mapper& mapper) {
   Impl& m = *impl_;
   std::uint32_t index = 0;
-  CloudSlot* slot = thread_.joinable() ? m.clouds.acquire(&index) : nullptr;
+  CloudSlot* slot = thread_.started() ? m.clouds.acquire(&index) : nullptr;
   if (slot == nullptr) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
@@ -305,7 +305,7 @@ void copy_update(const hal::ObstacleUpdate& u, BoxSlot* slot) {
 bool FlightRecorder::record_boxes(const hal::ObstacleUpdate& update) {
   Impl& m = *impl_;
   std::uint32_t index = 0;
-  BoxSlot* slot = thread_.joinable() ? m.boxes.acquire(&index) : nullptr;
+  BoxSlot* slot = thread_.started() ? m.boxes.acquire(&index) : nullptr;
   if (slot == nullptr) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
@@ -318,7 +318,7 @@ bool FlightRecorder::record_boxes(const hal::ObstacleUpdate& update) {
 }
 
 void FlightRecorder::record_final_boxes(const hal::ObstacleUpdate& update) {
-  if (!thread_.joinable()) return;
+  if (!thread_.started()) return;
   Impl& m = *impl_;
   std::uint32_t index = 0;
   // Not on a real-time path (the run is over): wait for the recorder to free a slot.
@@ -333,7 +333,7 @@ void FlightRecorder::record_final_boxes(const hal::ObstacleUpdate& update) {
 }
 
 bool FlightRecorder::record_health(const hal::HealthSnapshot& health) {
-  if (!thread_.joinable() || !impl_->health.push(health)) {
+  if (!thread_.started() || !impl_->health.push(health)) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }

@@ -19,12 +19,12 @@
 #include <cstdint>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <Eigen/Geometry>
 
 #include "hal/os/doorbell.hpp"
+#include "hal/os/task.hpp"
 #include "hal/output/obstacle_sink.hpp"
 #include "hal/record/mcap_writer.hpp"
 #include "zonemap/common/camera.hpp"
@@ -76,7 +76,7 @@ class FlightRecorder final : public hal::ObstacleSink {
   bool open(const RecorderConfig& config, std::string* error);
   // Drains every queue, writes the summary and closes the file; idempotent.
   bool close(std::string* error);
-  bool is_open() const { return thread_.joinable(); }
+  bool is_open() const { return thread_.started(); }
 
   // Producer side: never blocks, never allocates; false (and counted) when full.
   bool record_pose(double time_s, const Eigen::Isometry3d& world_T_body);
@@ -102,7 +102,7 @@ class FlightRecorder final : public hal::ObstacleSink {
   struct Impl;
   void run();
   std::unique_ptr<Impl> impl_;
-  std::thread thread_;
+  os::Task thread_;
   std::atomic<bool> stopping_{false};
   std::atomic<std::int64_t> dropped_{0};
   os::Doorbell work_, room_;

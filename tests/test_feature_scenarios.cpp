@@ -9,6 +9,7 @@
 #include "test_support.hpp"
 #include "tools/eval/evaluate.hpp"
 #include "tools/replay/replay_run.hpp"
+#include "tools/sim/sequence_writer.hpp"
 
 namespace zonemap {
 namespace {

@@ -1,5 +1,5 @@
-// The threaded runtime: lock-free queues under stress, the pose buffer under a
-// racing writer, the pipeline's determinism, static memory and overload policy.
+// The threaded runtime: the pipeline's determinism, static memory and overload
+// policy (its queues and pose buffer: tests/core; its doorbells: test_doorbell.cpp).
 #include <gtest/gtest.h>
 
 #include "hal/can/obstacle_can_sink.hpp"
@@ -9,7 +9,6 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -19,199 +18,14 @@
 #include <thread>
 
 #include "hal/config/yaml_config.hpp"
-#include "hal/os/doorbell.hpp"
 #include "pipeline_support.hpp"
 #include "replay_support.hpp"
 #include "runtime/pipeline.hpp"
 #include "test_support.hpp"
 #include "tools/replay/replay_run.hpp"
-#include "tools/sim/scene.hpp"
-#include "zonemap/containers/spsc_queue.hpp"
-#include "zonemap/pose/pose_buffer.hpp"
 
 namespace zonemap {
 namespace {
-
-// A random amount of busy work (not a sleep): shakes the interleavings.
-void jitter(sim::Rng& rng, int max_spins) {
-  const int spins = static_cast<int>(rng.uniform() * max_spins);
-  std::atomic<int> sink{0};
-  for (int i = 0; i < spins; ++i) sink.fetch_add(1, std::memory_order_relaxed);
-}
-
-TEST(SpscQueue, FifoFullAndEmptyInOneThread) {
-  SpscQueue<std::uint32_t, 4> q;
-  std::uint32_t v = 0;
-  EXPECT_FALSE(q.pop(&v));
-  for (std::uint32_t i = 0; i < 4; ++i) EXPECT_TRUE(q.push(i));
-  EXPECT_FALSE(q.push(99)) << "full";
-  for (std::uint32_t i = 0; i < 4; ++i) {
-    ASSERT_TRUE(q.pop(&v));
-    EXPECT_EQ(v, i);
-  }
-  EXPECT_FALSE(q.pop(&v));
-  // Wrap around many times.
-  for (std::uint32_t i = 0; i < 1000; ++i) {
-    ASSERT_TRUE(q.push(i));
-    ASSERT_TRUE(q.pop(&v));
-    ASSERT_EQ(v, i);
-  }
-}
-
-TEST(Doorbell, ARingBeforeTheWaitIsNotLost) {
-  os::Doorbell bell;
-  const std::uint32_t ticket = bell.ticket();
-  bell.ring();
-  bell.wait(ticket);  // returns at once (a lost ring would hang here)
-  EXPECT_NE(bell.ticket(), ticket);
-  EXPECT_FALSE(bell.has_sleeper());
-}
-
-TEST(Doorbell, WaitUntilGivesUpAtItsDeadlineAndNotBeforeARing) {
-  os::Doorbell bell;
-  const auto now = std::chrono::steady_clock::now();
-  EXPECT_FALSE(bell.wait_until(bell.ticket(), now - std::chrono::milliseconds(1)));
-  const auto start = std::chrono::steady_clock::now();
-  EXPECT_FALSE(bell.wait_until(bell.ticket(), start + std::chrono::milliseconds(20)));
-  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(20));
-  const std::uint32_t ticket = bell.ticket();
-  bell.ring();
-  EXPECT_TRUE(bell.wait_until(ticket, std::chrono::steady_clock::now() + std::chrono::hours(1)));
-}
-
-// The pipeline's waiting: consumer and producer sleep on their own bells (the
-// producer when the queue is full), ring the other's after each push / pop.
-TEST(Doorbell, QueueWaitersSleepAndMissNoRing) {
-  constexpr std::uint64_t kItems = 100000;
-  SpscQueue<std::uint64_t, 16> q;
-  os::Doorbell producer_bell, consumer_bell;
-  std::atomic<std::uint64_t> producer_sleeps{0};
-  std::thread producer([&] {
-    sim::Rng rng(3);
-    for (std::uint64_t i = 1; i <= kItems; ++i) {
-      while (!q.push(i)) {
-        const std::uint32_t ticket = producer_bell.ticket();
-        if (q.push(i)) break;
-        producer_sleeps.fetch_add(1, std::memory_order_relaxed);
-        producer_bell.wait(ticket);
-      }
-      consumer_bell.ring();
-      if ((i & 1023) == 0) jitter(rng, 20000);
-    }
-  });
-  sim::Rng rng(4);
-  std::uint64_t expected = 1, v = 0, consumer_sleeps = 0;
-  while (expected <= kItems) {
-    if (!q.pop(&v)) {
-      const std::uint32_t ticket = consumer_bell.ticket();
-      if (!q.pop(&v)) {
-        ++consumer_sleeps;
-        consumer_bell.wait(ticket);
-        continue;
-      }
-    }
-    producer_bell.ring();
-    ASSERT_EQ(v, expected) << "order";
-    ++expected;
-    if ((expected & 511) == 0) jitter(rng, 20000);
-  }
-  producer.join();
-  EXPECT_FALSE(q.pop(&v)) << "nothing extra";
-  std::printf("[ doorbell ] %llu items, consumer slept %llu times, producer %llu\n",
-              static_cast<unsigned long long>(kItems),
-              static_cast<unsigned long long>(consumer_sleeps),
-              static_cast<unsigned long long>(producer_sleeps.load()));
-}
-
-// A waiting thread is asleep in the kernel (state S), not spinning (state R).
-TEST(Doorbell, AWaitingThreadSleepsInTheKernel) {
-  os::Doorbell bell;
-  std::atomic<long> waiter_tid{0};
-  const std::uint32_t ticket = bell.ticket();
-  std::thread waiter([&] {
-    waiter_tid.store(static_cast<long>(syscall(SYS_gettid)));
-    bell.wait(ticket);
-  });
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  char state = '?';
-  while (std::chrono::steady_clock::now() < give_up) {
-    if (waiter_tid.load() == 0 || !bell.has_sleeper()) continue;
-    std::ifstream stat("/proc/self/task/" + std::to_string(waiter_tid.load()) + "/stat");
-    std::string line;
-    std::getline(stat, line);
-    const std::size_t paren = line.rfind(')');  // "tid (name) S ..."
-    if (paren != std::string::npos && paren + 2 < line.size()) state = line[paren + 2];
-    if (state == 'S') break;
-  }
-  bell.ring();
-  waiter.join();
-  EXPECT_EQ(state, 'S') << "the waiter should sleep in futex, not run";
-}
-
-TEST(SpscQueue, StressKeepsOrderAndLosesNothing) {
-  constexpr std::uint64_t kItems = 200000;
-  SpscQueue<std::uint64_t, 64> q;
-  std::uint64_t full_retries = 0;
-  std::thread producer([&] {
-    sim::Rng rng(1);
-    for (std::uint64_t i = 1; i <= kItems; ++i) {
-      while (!q.push(i)) ++full_retries;
-      if ((i & 255) == 0) jitter(rng, 2000);
-    }
-  });
-  sim::Rng rng(2);
-  std::uint64_t expected = 1, v = 0;
-  while (expected <= kItems) {
-    if (!q.pop(&v)) continue;
-    ASSERT_EQ(v, expected) << "order";
-    ++expected;
-    if ((expected & 127) == 0) jitter(rng, 4000);
-  }
-  producer.join();
-  EXPECT_FALSE(q.pop(&v)) << "nothing extra";
-  std::printf("[ spsc ] %llu items, producer found it full %llu times\n",
-              static_cast<unsigned long long>(kItems),
-              static_cast<unsigned long long>(full_retries));
-}
-
-TEST(PoseBuffer, ReaderAlwaysSeesConsistentSamples) {
-  PoseBuffer<16> buffer;
-  constexpr int kSamples = 100000;
-  std::atomic<bool> done{false};
-  std::thread writer([&] {
-    for (int i = 1; i <= kSamples; ++i) {
-      const double t = i * 0.01;
-      // Every field derived from t: a torn read would mix two samples.
-      buffer.push(
-          {t, Eigen::Vector3d(t, 2 * t, 3 * t),
-           Eigen::Quaterniond(Eigen::AngleAxisd(std::fmod(t, 3.0), Eigen::Vector3d::UnitZ()))});
-    }
-    done.store(true, std::memory_order_release);
-  });
-  PoseTrack track(1.0, 0.1);
-  track.reserve(16);
-  std::int64_t snapshots = 0;
-  double last_newest = -1.0;
-  while (!done.load(std::memory_order_acquire) || snapshots < 10) {
-    const double newest = buffer.snapshot(&track);
-    ++snapshots;
-    for (const PoseSample& s : track.samples()) {
-      EXPECT_DOUBLE_EQ(s.position.x(), s.time_s);
-      EXPECT_DOUBLE_EQ(s.position.z(), 3 * s.time_s);
-      EXPECT_NEAR(Eigen::AngleAxisd(s.attitude).angle(), std::fmod(s.time_s, 3.0), 1e-9);
-    }
-    if (track.size() > 0) {
-      EXPECT_GE(newest, last_newest) << "time never goes back";
-      last_newest = newest;
-    }
-    if (HasFailure()) break;  // (the writer is joined below either way)
-  }
-  writer.join();
-  EXPECT_EQ(buffer.count(), static_cast<std::uint64_t>(kSamples));
-  buffer.snapshot(&track);
-  EXPECT_EQ(track.size(), 15u) << "capacity minus one slot of slack";
-  EXPECT_DOUBLE_EQ(track.samples().back().time_s, kSamples * 0.01);
-}
 
 std::string test_sequence(const testing::TempDir& dir, const std::string& name, double rate,
                           std::size_t frames) {

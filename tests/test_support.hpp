@@ -16,6 +16,7 @@
 #include "core/core_test_support.hpp"  // the split, small config, INS solution
 #include "hal/output/obstacle_sink.hpp"
 #include "tools/sim/scenarios.hpp"
+#include "tools/sim/sequence_writer.hpp"
 #include "zonemap/common/config.hpp"
 #include "zonemap/common/work_split.hpp"
 #include "zonemap/pose/ins_gate.hpp"

@@ -1,9 +1,10 @@
 // What the core's tests share, from the core alone: a small deterministic
-// generator, a split that runs its parts last first, a small centred config and
-// a valid INS solution.
+// generator, busy work that shakes threads' interleavings, a split that runs its parts last first,
+// a small centred config and a valid INS solution.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 
@@ -31,6 +32,13 @@ class Lcg {
  private:
   std::uint64_t state_;
 };
+
+// A random amount of busy work (not a sleep): shakes the interleavings.
+inline void jitter(Lcg& rng, int max_spins) {
+  const int spins = static_cast<int>(rng.uniform() * max_spins);
+  std::atomic<int> sink{0};
+  for (int i = 0; i < spins; ++i) sink.fetch_add(1, std::memory_order_relaxed);
+}
 
 // A split whose parts run one after another, the last first: a part that read
 // what another part writes would see it unwritten.

@@ -14,7 +14,10 @@
 #                                         never a desk tool
 #   programs  tools/                      anything
 #   core tests tests/core/<stage>          the core's public headers only (they link the
-#                                         core alone)
+#                                         core alone), and the scene renderer
+#   scene     tools/sim/scene*,           the generated scenes' rendering: the core's
+#             tools/sim/scenarios*        public headers and itself only (the core's
+#                                         tests render with it)
 # plus, inside the HAL: an interface or shared folder (frames, ins, output, os, config,
 # codec) never includes a back-end (replay, v4l2, can, lcm, mavlink, ins_log, record), and the replay back-end
 # (the host HAL) no vehicle link: recorded INS logs reach it through hal/ins's interface.
@@ -93,12 +96,15 @@ while IFS= read -r line; do
     onboard/*)
       case "$inc" in tools/*) check "$file" "$inc" "the onboard program never includes a desk tool" ;; esac ;;
     tests/core/*)
-      case "$inc" in zonemap/*) ;; *) [ -f "tests/core/$inc" ] ||
-        check "$file" "$inc" "the core's tests include only the core's public headers (and their own helpers)" ;; esac ;;
+      case "$inc" in zonemap/*|tools/sim/scene.hpp|tools/sim/scenarios.hpp) ;; *) [ -f "tests/core/$inc" ] ||
+        check "$file" "$inc" "the core's tests include only the core's public headers, the scene renderer (and their own helpers)" ;; esac ;;
+    tools/sim/scene*|tools/sim/scenarios*)
+      case "$inc" in zonemap/*|tools/sim/scene.hpp|tools/sim/scenarios.hpp) ;; *)
+        check "$file" "$inc" "the scene renderer includes only the core's public headers (the core's tests link it)" ;; esac ;;
     hal/*)
       case "$inc" in tools/*|onboard/*|runtime/*) check "$file" "$inc" "the HAL never includes the runtime or a program" ;; esac ;;
   esac
-done < <(grep -rn --include='*.hpp' --include='*.cpp' --include='*.h' '^#include "' include src hal runtime onboard tests/core |
+done < <(grep -rn --include='*.hpp' --include='*.cpp' --include='*.h' '^#include "' include src hal runtime onboard tests/core tools/sim |
          sed 's/:[0-9]*:/:/')
 
 status=0

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "tools/sim/scenarios.hpp"
+#include "tools/sim/sequence_writer.hpp"
 
 int main(int argc, char** argv) {
   using namespace zonemap::sim;

@@ -1,7 +1,8 @@
 // Generated flights: a scene of ground plane, boxes and vertical cylinders seen by
-// a stereo camera along a trajectory, rendered to the replay layout of
-// FORMATS.md §1 with stereo noise per eq. (1), holes and a bright flat sky.
-// Deterministic for a given seed.
+// a stereo camera along a trajectory, rendered with stereo noise per eq. (1),
+// holes and a bright flat sky. Deterministic for a given seed. Computation only
+// (it links the core alone, so the core's tests render with it);
+// sequence_writer.hpp writes a flight in the replay layout of FORMATS.md §1.
 #pragma once
 
 #include <cstdint>
@@ -109,16 +110,5 @@ struct ObjectSightings {
 void render(const Scene& scene, const CameraModel& camera, const Eigen::Isometry3d& pose,
             const RenderOptions& options, Rng& rng, std::uint16_t* depth, std::uint8_t* left,
             ObjectSightings* sightings = nullptr);
-
-// Writes a whole sequence directory (camera.yaml, depth.txt, depth/, left.txt,
-// left/, groundtruth.txt, objects.yaml). Each frame shows the scene at its time;
-// objects.yaml gives a moving object where it is at the last frame.
-bool write_sequence(const std::string& dir, const Scene& scene, const CameraModel& camera,
-                    const std::vector<TimedPose>& trajectory, const RenderOptions& options,
-                    std::string* error);
-
-// sightings: from render() over the flight (pixel_hits, seen_top_z).
-bool write_objects_yaml(const std::string& path, const Scene& scene,
-                        const ObjectSightings& sightings, std::string* error);
 
 }  // namespace zonemap::sim

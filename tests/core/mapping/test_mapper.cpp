@@ -1,13 +1,11 @@
-// The Mapper (paper §III-A..D in one call per frame): no allocation after
-// start-up, bad poses rejected, the sky filter, d_max, the ground below the
-// environment, any image width.
+// The Mapper (paper §III-A..D in one call per frame): bad poses rejected, the
+// sky filter, d_max, the ground below the environment, any image width (no
+// allocation after start-up: tests/test_core_allocations.cpp).
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <vector>
 
-#include "hal/os/allocation_counter.hpp"
-#include "test_support.hpp"
+#include "core_test_support.hpp"
 #include "tools/sim/scene.hpp"
 #include "zonemap/mapping/mapper.hpp"
 
@@ -15,64 +13,6 @@ namespace zonemap {
 namespace {
 
 using testing::small_centred_config;
-
-TEST(Mapper, NoHeapAllocationAfterInit) {
-  MapConfig config = small_centred_config();
-  config.zone_cells = {40, 40, 16};
-  config.cell_size_m = 0.5;
-  config.d_min_m = 1.0;
-  config.d_max_m = 15.0;
-  CameraModel camera;
-  camera.width = 64;
-  camera.height = 48;
-  camera.fx = camera.fy = 60.0;
-  camera.cx = 31.5;
-  camera.cy = 23.5;
-  camera.baseline_m = 0.3;
-  camera.match_sigma_px = 0.25;
-  camera.depth_scale = 1000.0;
-  sim::Scene scene;
-  scene.boxes.push_back({"box", {6, -2, 0}, {8, 2, 3}});
-  std::vector<std::uint16_t> depth(64 * 48);
-  std::vector<std::uint8_t> left(64 * 48);
-  sim::Rng rng(7);
-
-  Mapper mapper(config, camera);  // all memory reserved here
-  DepthFrameView view{depth.data(), left.data(), camera.width, camera.height};
-  std::int64_t allocated_zones_before = 0;
-  os::AllocationCounts total;
-  for (int frame = 0; frame < 40; ++frame) {
-    // Fly 1 m per frame so that zone boundaries are crossed several times.
-    const Eigen::Isometry3d pose = sim::look_pose({frame * 1.0 - 20.0, 0.3 * frame, 2.0}, 0.0, 0.2);
-    sim::render(scene, camera, pose, sim::RenderOptions{}, rng, depth.data(), left.data());
-    os::AllocationScope scope;
-    const FrameReport report = mapper.integrate(view, pose);
-    const os::AllocationCounts c = scope.counted();
-    total.allocations += c.allocations;
-    total.frees += c.frees;
-    ASSERT_EQ(report.status, FrameStatus::kMapped);
-    if (frame == 0) allocated_zones_before = mapper.zones().zones_allocated();
-  }
-  EXPECT_GT(mapper.zones().zones_allocated(), allocated_zones_before) << "boundaries were crossed";
-  EXPECT_EQ(total.allocations, 0);
-  EXPECT_EQ(total.frees, 0);
-}
-
-TEST(Mapper, CountingReallyCountsAllocations) {
-  // Guards the proof above: allocations in a counted scope are seen, C++ and C.
-  os::AllocationScope scope;
-  auto* p = new std::vector<int>(100);
-  delete p;
-  EXPECT_GE(scope.counted().allocations, 2);
-  EXPECT_GE(scope.counted().frees, 2);
-  [[maybe_unused]] const os::AllocationCounts before = scope.counted();
-  void* volatile c = std::malloc(64);
-  std::free(c);
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
-  EXPECT_EQ(scope.counted().allocations, before.allocations + 1) << "malloc is counted";
-  EXPECT_EQ(scope.counted().frees, before.frees + 1);
-#endif
-}
 
 TEST(Mapper, RejectsNonFinitePoseAndLeavesTheMapAlone) {
   MapConfig config = small_centred_config();

@@ -1,7 +1,8 @@
 // SkyFilter: a bright, flat pixel without depth is sky only where sky can be
 // (above the pose's horizon, nothing measured above it, not reaching below the
 // horizon, not resting on a measured surface); everything else stays unknown.
-// Then pixel by pixel on generated flights against the renderer's truth.
+// Then pixel by pixel on generated flights against the renderer's truth (and
+// in the map of a whole replay: tests/test_sky_map.cpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,9 +10,6 @@
 #include <cstdio>
 #include <vector>
 
-#include "replay_support.hpp"
-#include "test_support.hpp"
-#include "tools/replay/replay_run.hpp"
 #include "tools/sim/scenarios.hpp"
 #include "tools/sim/scene.hpp"
 #include "zonemap/depth/sky_filter.hpp"
@@ -296,48 +294,6 @@ TEST(SkyFilter, UnderOpenSkyTheSkyIsTakenAsBefore) {
     EXPECT_GT(f.candidates, 0) << name;
     EXPECT_EQ(f.taken_on_surface, 0) << name;
     EXPECT_GE(static_cast<double>(f.taken), 0.95 * static_cast<double>(f.candidates)) << name;
-  }
-}
-
-TEST(SkyFilter, NoCellOfAWhiteWallIsFreedInTheMap) {
-  // The shipped flight-2 configuration over the white scenes: every cell whose
-  // centre lies inside a white object is unknown or occupied, never free.
-  for (const char* name : {"white-wall", "white-wall-beside", "white-tower", "white-van"}) {
-    testing::TempDir dir;
-    const std::string config = testing::write_test_scenario(name, dir / "seq", 5.0, 1);
-    ASSERT_FALSE(config.empty()) << name;
-    sim::Scenario scenario;
-    std::string error;
-    ASSERT_TRUE(sim::make_scenario(name, {640, 5.0, 1}, &scenario, &error));
-    tools::ReplayRun run;
-    ASSERT_TRUE(run.open(testing::quiet_replay(dir / "seq", config), &error)) << error;
-    run.run();
-    EXPECT_EQ(run.stats().heap_allocations_after_init, 0) << name;
-    EXPECT_GT(run.stats().pixels_sky_refused, 0) << name;
-    Mapper& mapper = run.mapper();
-    std::int64_t inside = 0, freed = 0;
-    mapper.zones().for_each_live_zone([&](ZoneView& zone) {
-      for (int z = 0; z < zone.dims[2]; ++z)
-        for (int y = 0; y < zone.dims[1]; ++y)
-          for (int x = 0; x < zone.dims[0]; ++x) {
-            const Eigen::Vector3d c =
-                mapper.cell_center({zone.origin.x + x, zone.origin.y + y, zone.origin.z + z});
-            for (const sim::Box& b : scenario.scene.boxes) {
-              if (!b.white ||
-                  !((c.array() > b.min.array()).all() && (c.array() < b.max.array()).all())) {
-                continue;
-              }
-              ++inside;
-              freed += zone.cells[zone.index(x, y, z)] < mapper.free_threshold() ? 1 : 0;
-            }
-          }
-    });
-    std::printf(
-        "[ %s ] sky %lld px, refused %lld px; cells inside the white object %lld, free %lld\n",
-        name, static_cast<long long>(run.stats().pixels_sky),
-        static_cast<long long>(run.stats().pixels_sky_refused), static_cast<long long>(inside),
-        static_cast<long long>(freed));
-    EXPECT_EQ(freed, 0) << name;
   }
 }
 

@@ -1,78 +1,18 @@
 // Planner queries against brute force: every occupied cell (grid and feature
-// shapes) tested against the segment with an exact slab test.
+// shapes) tested against the segment with an exact slab test (no allocation:
+// tests/test_core_allocations.cpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include "hal/os/allocation_counter.hpp"
-#include "tools/sim/scene.hpp"
+#include "outputs/query_world.hpp"
 #include "zonemap/outputs/queries.hpp"
 
 namespace zonemap {
 namespace {
 
-struct World {
-  MapConfig config;
-  ZoneMap zones;
-  FeatureMap features;
-  std::vector<CellIndex> occupied;  // every occupied cell, for brute force
-  std::vector<std::pair<CellIndex, std::uint32_t>> obstacle_cells;
-
-  static MapConfig make_config() {
-    MapConfig c;
-    c.cell_size_m = 0.5;
-    c.zone_cells = {16, 16, 8};
-    c.features.min_cells = 1;
-    c.features.ground_enabled = false;
-    c.features.capacity = 256;
-    c.features.quadtree_groups = 4096;
-    return c;
-  }
-
-  World() : config(make_config()), zones(config), features(config, true) {
-    sim::Rng rng(11);
-    const FusedCell high = 4 * kCellScale;
-    // A far zone (key 3,0,0) known only through features: random blobs, extracted
-    // from a scratch grid.
-    std::vector<FusedCell> scratch(16 * 16 * 8, 0);
-    ZoneView far{{3, 0, 0}, {48, 0, 0}, config.zone_cells, scratch.data()};
-    for (int blob = 0; blob < 6; ++blob) {
-      const int x0 = static_cast<int>(rng.uniform() * 12),
-                y0 = static_cast<int>(rng.uniform() * 12);
-      const int z0 = static_cast<int>(rng.uniform() * 5);
-      for (int k = 0; k < 10; ++k) {
-        const int x = x0 + static_cast<int>(rng.uniform() * 4),
-                  y = y0 + static_cast<int>(rng.uniform() * 4);
-        const int z = z0 + static_cast<int>(rng.uniform() * 3);
-        scratch[far.index(x, y, z)] = high;
-      }
-    }
-    features.extract(far);
-    // Brute-force list of feature-shape cells: box x footprint.
-    for (const Feature* f = features.begin(); f != features.end(); ++f) {
-      if (!f->in_use) continue;
-      for (int z = f->min.z; z <= f->max.z; ++z)
-        for (int y = f->min.y; y <= f->max.y; ++y)
-          for (int x = f->min.x; x <= f->max.x; ++x)
-            if (features.feature_contains(*f, {x, y, z})) {
-              occupied.push_back({x, y, z});
-              obstacle_cells.push_back({{x, y, z}, f->id});
-            }
-    }
-    // Live zones around the origin with random occupied cells in the grid.
-    zones.move_environment(zones.environment_origin({8, 8, 4}));
-    zones.for_each_live_zone([&](ZoneView& z) {
-      for (int i = 0; i < 40; ++i) {
-        const int x = static_cast<int>(rng.uniform() * 16),
-                  y = static_cast<int>(rng.uniform() * 16);
-        const int zz = static_cast<int>(rng.uniform() * 8);
-        z.cells[z.index(x, y, zz)] = high;
-        occupied.push_back({z.origin.x + x, z.origin.y + y, z.origin.z + zz});
-      }
-    });
-  }
-};
+using testing::World;
 
 bool brute_blocked(const World& w, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                    double* t_first) {
@@ -158,20 +98,6 @@ TEST(Queries, ObstaclesInBoxAgreeWithBruteForce) {
   }
   EXPECT_GT(non_empty, 50);
   EXPECT_LT(non_empty, 450);
-}
-
-TEST(Queries, DoNotAllocateAndAreBounded) {
-  World w;
-  MapQueries q(w.features, w.zones, w.config.cell_size_m, 1, 1000);
-  os::AllocationScope scope;
-  std::uint32_t ids[8];
-  (void)q.is_free({0, 0, 0}, {30, 5, 2});
-  (void)q.first_hit({0, 0, 0}, {1, 0.1, 0}, 40.0);
-  (void)q.obstacles_in({20, 0, 0}, {30, 8, 4}, ids, 8);
-  EXPECT_EQ(scope.counted().allocations, 0);
-  // A segment longer than the walking bound is reported blocked, never free.
-  EXPECT_FALSE(q.is_free({-1000, 0.3, 0.3}, {-1000 + 900, 0.3, 0.3}));
-  EXPECT_FALSE(q.first_hit({0, 0, 0}, {0, 0, 0}, 10.0).hit) << "no direction: no hit";
 }
 
 }  // namespace

@@ -1,12 +1,13 @@
 // The feature map (paper §IV): flood fill, boxes, quadtree footprints, ground
-// split, re-integration, cross-zone merge, store policy.
+// split, re-integration, cross-zone merge, store policy (no allocation:
+// tests/test_core_allocations.cpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 
 #include <vector>
 
-#include "hal/os/allocation_counter.hpp"
+#include "features/feature_test_zone.hpp"
 #include "tools/sim/scene.hpp"
 #include "zonemap/containers/quadtree.hpp"
 #include "zonemap/containers/window_min.hpp"
@@ -15,31 +16,8 @@
 namespace zonemap {
 namespace {
 
-// A zone buffer of its own, for hand-made grids.
-struct TestZone {
-  std::vector<FusedCell> cells;
-  ZoneView view;
-  TestZone(const std::array<int, 3>& dims, const ZoneKey& key)
-      : cells(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2], 0) {
-    view = ZoneView{key, CellIndex{key.i * dims[0], key.j * dims[1], key.k * dims[2]}, dims,
-                    cells.data()};
-  }
-  void set(int x, int y, int z, FusedCell v = 4 * kCellScale) { cells[view.index(x, y, z)] = v; }
-  FusedCell at(int x, int y, int z) const { return cells[view.index(x, y, z)]; }
-};
-
-MapConfig feature_config(std::array<int, 3> dims, bool ground) {
-  MapConfig config;
-  config.cell_size_m = 1.0;
-  config.zone_cells = dims;
-  config.features.min_cells = 1;
-  config.features.ground_enabled = ground;
-  config.features.ground_thickness_m = 1.0;
-  config.features.ground_window_m = 4.0;
-  config.features.capacity = 64;
-  config.features.quadtree_groups = 1024;
-  return config;
-}
+using testing::feature_config;
+using testing::TestZone;
 
 std::vector<const Feature*> features_of(const FeatureMap& map, FeatureKind kind) {
   std::vector<const Feature*> out;
@@ -672,22 +650,6 @@ TEST(FeatureStore, ObstaclesOutrankGroundWhenFull) {
   ASSERT_EQ(map.count(), 1u);
   EXPECT_EQ(map.count(FeatureKind::kObstacle), 1u);
   EXPECT_EQ(map.counters().features_dropped + map.counters().features_evicted, 1);
-}
-
-TEST(FeatureStore, ExtractionAndReintegrationDoNotAllocate) {
-  const std::array<int, 3> dims = {30, 30, 12};
-  FeatureMap map(feature_config(dims, true), true);
-  TestZone zone(dims, {0, 0, 0});
-  for (int y = 0; y < 30; ++y)
-    for (int x = 0; x < 30; ++x) zone.set(x, y, 2);
-  for (int z = 3; z <= 9; ++z) zone.set(15, 12, z);
-  os::AllocationScope scope;
-  for (int i = 0; i < 3; ++i) map.extract(zone.view);
-  TestZone* again = &zone;
-  map.on_zone_allocated(again->view);
-  std::array<ObstacleBox, 8> boxes;
-  map.merged(boxes.data(), boxes.size(), true);
-  EXPECT_EQ(scope.counted().allocations, 0);
 }
 
 }  // namespace

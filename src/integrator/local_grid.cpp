@@ -15,15 +15,21 @@ int symmetric_shift(int value, int shift) {
 }
 
 // A blur pass makes no cell free that was not free before it: a cell unknown (0)
-// or occupied takes occupancy from its neighbours but not their free space, at
-// most down to unknown. Blurring the free space beside a surface into the cells
-// behind it, which no ray saw, would call the inside of a trunk free.
+// takes occupancy from its neighbours but not their free space. Blurring the
+// free space beside a surface into the cells behind it, which no ray saw, would
+// call the inside of a trunk free. Nor does a pass erase an occupied cell: where
+// its free neighbours would take it to unknown or free, it keeps half its value.
+// A post or pole thinner than a cell, seen from a few metres (eq. 1's Δd far
+// under a cell), is one occupied cell between cells its neighbouring rays saw
+// free: the plain kernel made it unknown in every frame, and it never entered
+// the map (scene hover-near).
+// One select: half of 0 is 0, and half of an occupied cell is what it keeps.
 inline int blurred(int centre, int value) {
-  return centre >= 0 && value < 0 ? 0 : value;
+  return centre >= 0 && value <= 0 ? (centre + 1) >> 1 : value;
 }
 
 // out = (a + 2 b + c) / 4, rounded symmetrically, for int8 rows (out may be none
-// of the inputs), kept from going below 0 where b is not (blurred()). Sixteen cells
+// of the inputs), as blurred() keeps it where b is not free. Sixteen cells
 // at a time in 16-bit lanes (|a + 2 b + c| <= 256 for cell values in [-64, 64]);
 // the rest one by one.
 void blur_row3(const LocalCell* __restrict a, const LocalCell* __restrict b,
@@ -39,7 +45,7 @@ void blur_row3(const LocalCell* __restrict a, const LocalCell* __restrict b,
     const I16x8 magnitude = negative ? -sum : sum;
     const I16x8 shifted = (magnitude + 2) >> 2;
     const I16x8 value = negative ? -shifted : shifted;
-    const I16x8 kept = (centre >= 0 && value < 0) ? I16x8{} : value;  // blurred()
+    const I16x8 kept = (centre >= 0 && value <= 0) ? (centre + 1) >> 1 : value;  // blurred()
     return __builtin_convertvector(kept, I8x8);
   };
   int x = 0;

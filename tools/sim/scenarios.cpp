@@ -53,6 +53,35 @@ void route_scene(std::uint64_t seed, double rate, Scenario* s) {
   }
 }
 
+// A hover 3 m up turning once on the spot, with two posts, a wall and a low box
+// 3-7 m away (seen nowhere farther) and a tree 20 m out: what a helicopter near
+// the ground must see though it never flew toward it.
+void hover_near_scene(std::uint64_t seed, double rate, Scenario* s) {
+  s->description = "a hover turning on the spot 3 m up, posts, a wall and a box 3-7 m away";
+  s->config = "config/outdoor-0.5m.yaml";
+  Rng rng(seed * 104729 + 3);
+  const auto at = [&](double bearing_deg, double range) {
+    return Eigen::Vector2d(range * std::cos(bearing_deg * kDeg),
+                           range * std::sin(bearing_deg * kDeg));
+  };
+  s->scene.cylinders.push_back(
+      {"post_a", at(20.0 * rng.uniform(), 3.5 + 2.0 * rng.uniform()), 0.15, 0.0, 5.0});
+  s->scene.cylinders.push_back(
+      {"post_b", at(100.0 + 20.0 * rng.uniform(), 4.5 + 2.5 * rng.uniform()), 0.2, 0.0, 6.0});
+  const double wall_y = -(4.0 + 2.5 * rng.uniform());
+  s->scene.boxes.push_back(
+      {"wall", Eigen::Vector3d(-2.5, wall_y - 0.3, 0.0), Eigen::Vector3d(1.5, wall_y, 3.0)});
+  const Eigen::Vector2d crate = at(200.0 + 20.0 * rng.uniform(), 4.0 + 2.0 * rng.uniform());
+  s->scene.boxes.push_back({"crate", Eigen::Vector3d(crate.x() - 0.6, crate.y() - 0.6, 0.0),
+                            Eigen::Vector3d(crate.x() + 0.6, crate.y() + 0.6, 1.2)});
+  s->scene.cylinders.push_back({"tree", at(45.0, 20.0), 1.5, 0.0, 9.0});
+  const int frames = static_cast<int>(12.0 * rate);  // one turn in 12 s
+  for (int i = 0; i < frames; ++i) {
+    const double yaw = 2.0 * kPi * i / frames;
+    s->trajectory.push_back({i / rate, look_pose(Eigen::Vector3d(0.0, 0.0, 3.0), yaw, 15 * kDeg)});
+  }
+}
+
 // Terrain rising (or falling) 8-14% from x = 30 m on, with two poles, a hut and a
 // wall standing on it, each set into the slope where it stands.
 void terrain_scene(bool rises, std::uint64_t seed, Scenario* s) {
@@ -136,7 +165,7 @@ std::vector<std::string> scenario_names() {
           "hedge-beside",    "posts-high",   "crossing-car",   "parked-car",
           "terrain-rise",    "terrain-fall", "white-wall",     "white-wall-beside",
           "white-tower",     "white-van",    "field-grazing",  "route-out-and-back",
-          "sitl-course"};
+          "sitl-course",     "hover-near"};
 }
 
 bool make_scenario(const std::string& name, const ScenarioOptions& options, Scenario* s,
@@ -329,6 +358,8 @@ bool make_scenario(const std::string& name, const ScenarioOptions& options, Scen
     s->trajectory = straight({0, 0, 10.0}, {60, 0, 10.0}, 3.0, 10 * kDeg, rate);
   } else if (name == "route-out-and-back") {
     route_scene(options.seed, rate, s);
+  } else if (name == "hover-near") {
+    hover_near_scene(options.seed, rate, s);
   } else if (name.rfind("white-", 0) == 0 && (name == "white-wall" || name == "white-wall-beside" ||
                                               name == "white-tower" || name == "white-van")) {
     white_scene(name, rate, s);

@@ -167,9 +167,13 @@ std::vector<int> reference_blur(std::vector<int> v, const std::array<int, 3>& n,
           }
           const int shift = 2 * radius, half = 1 << (shift - 1);
           const int value = sum >= 0 ? (sum + half) >> shift : -((-sum + half) >> shift);
-          // A pass makes no cell free that was not free before it.
+          // A pass makes no cell free that was not free before it, and leaves an
+          // occupied cell half its value where its neighbours would erase it.
+          const int centre = at(v, x, y, z);
           out[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] =
-              at(v, x, y, z) >= 0 && value < 0 ? 0 : value;
+              centre > 0 && value <= 0   ? (centre + 1) / 2
+              : centre == 0 && value < 0 ? 0
+                                         : value;
         }
     v = out;
   }
@@ -266,7 +270,8 @@ TEST(LocalGrid, TheBlurMakesNoCellFreeThatWasNotFree) {
   EXPECT_GT(grid.at(9, 1, 1), 0) << "occupancy still spreads into unknown cells";
   EXPECT_GT(grid.at(8, 0, 1), 0);
 
-  // A weakly occupied cell in free space: the blur takes it down to unknown at most.
+  // A weakly occupied cell in free space: its free neighbours would make it free;
+  // each of the three passes leaves it half instead.
   LocalGrid lone({5, 5, 5});
   lone.reset(CellIndex{});
   lone.extend_touched(0, 0, 0, 4, 4, 4);
@@ -276,8 +281,28 @@ TEST(LocalGrid, TheBlurMakesNoCellFreeThatWasNotFree) {
         lone.write_max(x, y, z,
                        static_cast<LocalCell>(x == 2 && y == 2 && z == 2 ? 8 : -kCellScale));
   lone.finish(1);
-  EXPECT_EQ(lone.at(2, 2, 2), 0) << "not made free by its neighbours";
+  EXPECT_EQ(lone.at(2, 2, 2), 1) << "8 halved by each pass, never erased";
   EXPECT_LT(lone.at(0, 0, 0), 0);
+}
+
+TEST(LocalGrid, AThinPostSeenUpCloseStaysOccupiedThroughTheBlur) {
+  // A post thinner than a cell seen from a few metres: one column of cells its
+  // rays ended in (m̂ = 1), every cell around it crossed free by the rays that
+  // passed beside it. The kernel alone gives the column (-1 + 2 - 1) / 4 = 0 in
+  // x and then free in y; it stays occupied, a quarter of its value (x, y
+  // passes), the column's own z neighbours keeping it there in z.
+  LocalGrid grid({7, 7, 6});
+  grid.reset(CellIndex{});
+  grid.extend_touched(0, 0, 0, 6, 6, 5);
+  for (int z = 0; z < 6; ++z)
+    for (int y = 0; y < 7; ++y)
+      for (int x = 0; x < 7; ++x)
+        grid.write_max(x, y, z,
+                       static_cast<LocalCell>(x == 3 && y == 3 ? kCellScale : -kCellScale));
+  grid.finish(1);
+  for (int z = 1; z < 5; ++z) EXPECT_EQ(grid.at(3, 3, z), kCellScale / 4) << "z " << z;
+  EXPECT_LT(grid.at(3, 2, 2), 0) << "the free space beside it stays free";
+  EXPECT_LT(grid.at(1, 3, 2), 0);
 }
 
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {

@@ -1,7 +1,7 @@
 // The core's proofs of "no heap allocation after start-up", through the
 // counting allocator (hal/os), which the core's own test binary does not link:
-// the mapping step, feature extraction with re-integration and merging, and the
-// planner queries. The counter itself is checked first.
+// the mapping step, feature extraction with re-integration and merging, the
+// shared-map inbox and the planner queries. The counter itself is checked first.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -14,6 +14,7 @@
 #include "test_support.hpp"
 #include "tools/sim/scene.hpp"
 #include "zonemap/features/feature_map.hpp"
+#include "zonemap/features/shared_map_inbox.hpp"
 #include "zonemap/mapping/mapper.hpp"
 #include "zonemap/outputs/queries.hpp"
 
@@ -111,6 +112,29 @@ TEST(Queries, DoNotAllocateAndAreBounded) {
   // A segment longer than the walking bound is reported blocked, never free.
   EXPECT_FALSE(q.is_free({-1000, 0.3, 0.3}, {-1000 + 900, 0.3, 0.3}));
   EXPECT_FALSE(q.first_hit({0, 0, 0}, {0, 0, 0}, 10.0).hit) << "no direction: no hit";
+}
+
+TEST(SharedMap, TheInboxHandsOverWithoutAllocating) {
+  SharedMapInbox inbox(8);
+  os::AllocationScope scope;
+  SharedMapUpdate* taken[SharedMapInbox::kSlots];
+  for (auto& t : taken) {
+    t = inbox.take_free();
+    ASSERT_NE(t, nullptr);
+    t->count = 1;
+    t->min[0] = Eigen::Vector3d(1, 2, 3);
+    inbox.post(t);
+  }
+  EXPECT_EQ(inbox.take_free(), nullptr);
+  EXPECT_EQ(inbox.dropped(), 1);
+  for (int i = 0; i < static_cast<int>(SharedMapInbox::kSlots); ++i) {
+    SharedMapUpdate* u = inbox.next();
+    ASSERT_EQ(u, taken[i]) << "in the order posted";
+    inbox.release(u);
+  }
+  EXPECT_EQ(inbox.next(), nullptr);
+  EXPECT_NE(inbox.take_free(), nullptr);
+  EXPECT_EQ(scope.counted().allocations, 0);
 }
 
 }  // namespace

@@ -27,14 +27,12 @@ void AcquisitionStage::push_replay_poses_until(double time_s) {
 
 // A free slot, or kEndOfStream when newest wins finds every slot waiting (the
 // frame read next is dropped).
-bool AcquisitionStage::take_slot(std::uint32_t* slot) {
+void AcquisitionStage::take_slot(std::uint32_t* slot) {
   if (lossless_) {
     pop_waiting(links_.free_slots, slot, links_.acquisition_bell);
-    return true;
+  } else if (!links_.free_slots.pop(slot)) {
+    *slot = kEndOfStream;
   }
-  if (links_.free_slots.pop(slot)) return true;
-  *slot = kEndOfStream;
-  return false;
 }
 
 void AcquisitionStage::run() {

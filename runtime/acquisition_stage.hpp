@@ -20,7 +20,7 @@ class AcquisitionStage {
   }
 
  private:
-  bool take_slot(std::uint32_t* slot);
+  void take_slot(std::uint32_t* slot);
   void push_replay_poses_until(double time_s);
 
   Links& links_;

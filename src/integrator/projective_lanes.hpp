@@ -4,6 +4,8 @@
 // ray-by-ray passes walk. Internal to src/: not a public header.
 #pragma once
 
+#include <bit>
+#include <climits>
 #include <cstdint>
 #include <cstring>
 
@@ -42,6 +44,16 @@ struct RayLanes {
 inline constexpr float kFreeAcrossMargin = 1.0f / (16.0f * kCellScale);
 inline constexpr float kMinSeenThrough = 1e-3f;
 
+// The float whose bits are `magnitude_bits` with x's sign, a lane each (-0 and
+// +0 too: the sign bit alone decides).
+inline Lanes with_sign_of(Lanes x, std::int32_t magnitude_bits) {
+  using Ints = std::int32_t __attribute__((vector_size(16)));
+  const Ints sign = reinterpret_cast<Ints>(x) & std::int32_t{INT32_MIN};
+  return reinterpret_cast<Lanes>(sign | magnitude_bits);
+}
+inline constexpr std::int32_t kTinyBits = 0x1e3ce508;
+static_assert(std::bit_cast<float>(kTinyBits) == 1e-20f, "the bits of 1e-20f");
+
 // Four pixel rays clipped to the box [lo, hi] (camera centre at the origin; the
 // ray of pixel (u, v) is δ ↦ δ (w00 + u du + v dv)): the δ at which each enters
 // and leaves it (from d_min on), written without branches.
@@ -52,8 +64,9 @@ inline Clipped clip_to_cell(Lanes u, Lanes v, const RayLanes& r) {
   Lanes enter = r.d_min, leave = splat(1e30f);
   for (int k = 0; k < 3; ++k) {
     const Lanes w = r.w00[k] + u * r.du[k] + v * r.dv[k];
-    // A ray parallel to a slab: a tiny offset keeps the products finite.
-    const Lanes safe = w < 0.0f ? w - 1e-20f : w + 1e-20f;
+    // A ray parallel to a slab: a tiny offset of w's sign keeps the products
+    // finite (its sign bit on 1e-20's bits: two logic operations, no blend).
+    const Lanes safe = w + with_sign_of(w, kTinyBits);
     const Lanes inv = 1.0f / safe;
     const Lanes ta = r.lo[k] * inv, tb = r.hi[k] * inv;
     enter = lanes_max(enter, lanes_min(ta, tb));

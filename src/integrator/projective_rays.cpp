@@ -178,7 +178,10 @@ bool ProjectiveIntegrator::any_ray_crosses(const DepthRangeTable& depths, int x0
         depths.range(tx, ty, ex, ey, &lo_code, &hi_code);
         if (lo_code > hi_code || hi_code < reach_lo) return false;  // no ray, or all end before
         const int count = ex - tx + 1;
-        for (int v = ty; v <= ey; ++v) {
+        // The rows from the middle out too: the rays through a cell's middle
+        // cross it, the rays at its bounding box's top and bottom rows seldom.
+        for (int row_i = 0; row_i <= ey - ty; ++row_i) {
+          const int v = ty + middle_out(row_i, ey - ty + 1);
           const int halves = row_halves_with_code_in(depths.codes(), depths.width(), tx, count, v,
                                                      reach_lo, DepthRangeTable::kFar);
           const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * depths.width();
@@ -284,7 +287,8 @@ bool ProjectiveIntegrator::reaches_near_peak_behind(const DepthRangeTable& depth
         if (lo_code > hi_code || hi_code < reach_lo || lo_code > reach_hi) return false;
         const int count = ex - tx + 1;
         const int width = depths.width();
-        for (int v = ty; v <= ey; ++v) {
+        for (int row_i = 0; row_i <= ey - ty; ++row_i) {
+          const int v = ty + middle_out(row_i, ey - ty + 1);
           const int halves =
               row_halves_with_code_in(depths.codes(), width, tx, count, v, reach_lo, reach_hi);
           const std::uint16_t* row = depths.codes() + static_cast<std::size_t>(v) * width;

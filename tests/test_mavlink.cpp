@@ -210,6 +210,26 @@ TEST(MavlinkSink, ArduPilotGetsScansOf3dPointsAloneEachUnderANewTime) {
   EXPECT_NE(mavlink::obstacle_id_3d(5, 0), mavlink::obstacle_id_3d(9, 2));
 }
 
+// ArduPilot keeps a point's body-frame vector as it comes: a scan sent between
+// map updates gives it for where the vehicle has flown to since, not for where
+// the update saw it from (else an obstacle ahead reads farther than it is).
+TEST(MavlinkSink, ScansBetweenUpdatesAreForWhereTheVehicleIsNow) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("ardupilot"), out);
+  const ObstacleBox ahead[] = {post(5, 20, 0)};  // its near face 19.5 m north
+  for (int k = 0; k < 2; ++k) {                  // north at 4 m/s, a frame each 0.1 s
+    hal::ObstacleUpdate u = update_of(ahead, 1, 0.1 * k);
+    u.world_T_body.translation().x() = 0.4 * k;
+    sink.publish(u, 0.1 * k);
+  }
+  ASSERT_FALSE(out.points.empty());
+  EXPECT_NEAR(out.points.back().x, 19.1f, 1e-3) << "sent with the update: its own pose";
+  sink.tick(0.4);  // 0.3 s on, no newer update: 1.2 m nearer
+  EXPECT_EQ(out.points.back().time_boot_ms, 400u);
+  EXPECT_NEAR(out.points.back().x, 17.9f, 1e-3);
+  EXPECT_NEAR(out.points.back().y, 0.0f, 1e-3);
+}
+
 // Nothing in range: one zero vector with the unknown id, so ArduPilot clears its
 // boundary on the new time and keeps the sensor healthy.
 TEST(MavlinkSink, AnEmptyScanIsOneZeroVectorWithTheUnknownId) {

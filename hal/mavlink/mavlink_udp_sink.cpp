@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "zonemap/pose/pose_track.hpp"
+
 namespace zonemap::mavlink {
 
 static_assert(sizeof(sockaddr_in) <= 16);
@@ -120,6 +122,13 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
         config_.sectors, nearest_,
         static_cast<std::size_t>(std::clamp(config_.max_obstacles_3d, 0, kMaxObstacles3d)),
         kMaxObstacleWedges);
+    for (std::size_t i = 0; i < nearest_count_; ++i) {
+      nearest_world_[i] = update.world_T_body * nearest_[i].body_frd;
+    }
+    previous_pose_ = update_pose_;
+    previous_frame_s_ = update_frame_s_;
+    update_pose_ = update.world_T_body;
+    update_frame_s_ = update.time_s;
   }
   time_usec_ = static_cast<std::uint64_t>(std::llround(std::max(update.time_s, 0.0) * 1e6));
   update_s_ = now_s;
@@ -206,11 +215,17 @@ void MavlinkUdpSink::send_scan_3d(double now_s) {
     ++empty_scans_3d_;
     return;
   }
+  // Where the vehicle is now, by the time since the update came.
+  const Eigen::Isometry3d body_T_world =
+      extrapolate_pose(previous_pose_, previous_frame_s_, update_pose_, update_frame_s_,
+                       now_s - update_s_)
+          .inverse();
   for (std::size_t i = 0; i < nearest_count_; ++i) {
+    const Eigen::Vector3d body_frd = body_T_world * nearest_world_[i];
     o.obstacle_id = obstacle_id_3d(nearest_[i].id, nearest_[i].wedge);
-    o.x = static_cast<float>(nearest_[i].body_frd.x());
-    o.y = static_cast<float>(nearest_[i].body_frd.y());
-    o.z = static_cast<float>(nearest_[i].body_frd.z());
+    o.x = static_cast<float>(body_frd.x());
+    o.y = static_cast<float>(body_frd.y());
+    o.z = static_cast<float>(body_frd.z());
     send(frame3d, encode_obstacle_distance_3d(o, ids_, sequence_++, frame3d), now_s);
     ++obstacles_3d_;
   }

@@ -10,6 +10,11 @@
 //    nearest kept; a scan with no obstacle is one zero vector (ArduPilot clears
 //    its boundary on the new time_boot_ms, drops the point and keeps the sensor
 //    healthy).
+//    Between map updates each scan's points are the newest update's, expressed
+//    in the body frame of the vehicle moved on since (its last two updates'
+//    velocity, over at most 0.5 s): ArduPilot keeps a point's body-frame vector
+//    as it comes, so a vector for where the vehicle was reads an obstacle ahead
+//    as farther than it is by the distance flown since.
 //  - ArduPilot, 2d, and PX4 (which reads no 3-D message): OBSTACLE_DISTANCE
 //    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the newest one is sent again
 // on the output thread's tick, until it is `stale_after_s` old: then only the
@@ -102,6 +107,13 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   std::uint64_t time_usec_ = 0;
   NearestObstacle nearest_[kMaxObstacles3d];
   std::size_t nearest_count_ = 0;
+  // The nearest points in the world, and the vehicle's poses of the newest two
+  // updates (frame times): a scan sent later re-expresses them for where the
+  // vehicle has moved to since (extrapolate_pose), never for where it was.
+  Eigen::Vector3d nearest_world_[kMaxObstacles3d];
+  Eigen::Isometry3d update_pose_ = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d previous_pose_ = Eigen::Isometry3d::Identity();
+  double update_frame_s_ = -1e300, previous_frame_s_ = -1e300;
   double update_s_ = -1e300, next_send_s_ = -1e300, last_heartbeat_s_ = -1e300;
   std::int64_t sent_ = 0, failed_ = 0, rate_limited_ = 0, resent_ = 0, stale_ = 0;
   std::int64_t heartbeats_ = 0, obstacles_3d_ = 0, updates_ = 0;

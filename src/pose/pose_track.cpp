@@ -60,4 +60,21 @@ PoseLookup PoseTrack::lookup(double t, Eigen::Isometry3d* out) const {
   return PoseLookup::kNoPose;
 }
 
+Eigen::Isometry3d extrapolate_pose(const Eigen::Isometry3d& previous, double previous_s,
+                                   const Eigen::Isometry3d& last, double last_s, double ahead_s,
+                                   const PoseExtrapolationLimits& limits) {
+  const double span = last_s - previous_s;
+  if (!(ahead_s > 0.0) || !(span > 0.0) || !(span <= limits.max_span_s)) return last;
+  const Eigen::Vector3d velocity = (last.translation() - previous.translation()) / span;
+  if (!(velocity.norm() <= limits.max_speed_mps)) return last;
+  const double ahead = std::min(ahead_s, limits.max_ahead_s);
+  // The turn from previous to last, in last's frame, scaled to `ahead`.
+  const Eigen::AngleAxisd turn(previous.linear().transpose() * last.linear());
+  Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+  moved.linear() = last.linear() *
+                   Eigen::AngleAxisd(turn.angle() * ahead / span, turn.axis()).toRotationMatrix();
+  moved.translation() = last.translation() + velocity * ahead;
+  return moved;
+}
+
 }  // namespace zonemap

@@ -45,4 +45,19 @@ class PoseTrack {
   std::vector<PoseSample> samples_;
 };
 
+// A pose a moment after the newest one known: `last` moved on for `ahead_s` as it
+// moved from `previous` (constant linear and angular velocity). Data computed for
+// `last` and sent later (a vehicle's obstacles in its body frame) stay right for
+// where the vehicle is when they go. `last` itself when ahead_s <= 0, when the two
+// are not max_span_s or less apart in time order, or moved faster than
+// max_speed_mps (a re-anchored track, not motion); ahead_s at most max_ahead_s.
+struct PoseExtrapolationLimits {
+  double max_ahead_s = 0.5;
+  double max_span_s = 1.0;
+  double max_speed_mps = 50.0;
+};
+Eigen::Isometry3d extrapolate_pose(const Eigen::Isometry3d& previous, double previous_s,
+                                   const Eigen::Isometry3d& last, double last_s, double ahead_s,
+                                   const PoseExtrapolationLimits& limits = {});
+
 }  // namespace zonemap

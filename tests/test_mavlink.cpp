@@ -10,6 +10,7 @@
 
 #include "hal/mavlink/mavlink_udp_sink.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
+#include "hal/os/allocation_counter.hpp"
 #include "zonemap/outputs/obstacle_distance.hpp"
 
 using namespace zonemap;
@@ -116,9 +117,14 @@ struct Captured final : mavlink::DatagramOut {
   };
   std::vector<std::uint32_t> ids;
   std::vector<Point> points;
+  std::vector<mavlink::DecodedObstacleDistance> sectors;  // OBSTACLE_DISTANCE
   bool send(const std::uint8_t* d, std::size_t size, double) override {
     const std::uint32_t id = d[7] | d[8] << 8 | d[9] << 16;
     ids.push_back(id);
+    mavlink::DecodedObstacleDistance decoded;
+    if (id == 330 && mavlink::decode_obstacle_distance(d, size, &decoded)) {
+      sectors.push_back(decoded);
+    }
     if (id == 11037 && size >= 12 + 28) {
       Point p;
       std::memcpy(&p.time_boot_ms, d + 10, 4);
@@ -210,6 +216,29 @@ TEST(MavlinkSink, ArduPilotGetsScansOf3dPointsAloneEachUnderANewTime) {
   EXPECT_NE(mavlink::obstacle_id_3d(5, 0), mavlink::obstacle_id_3d(9, 2));
 }
 
+namespace {
+
+// Two updates 0.1 s apart of a vehicle flying north at 4 m/s.
+void fly_north_two_updates(mavlink::MavlinkUdpSink& sink, const ObstacleBox* boxes,
+                           std::size_t count) {
+  for (int k = 0; k < 2; ++k) {
+    hal::ObstacleUpdate u = update_of(boxes, count, 0.1 * k);
+    u.world_T_body.translation().x() = 0.4 * k;
+    sink.publish(u, 0.1 * k);
+  }
+}
+
+// A grid of posts 2 m apart from 20 m ahead, more than a 2-D sink keeps.
+std::vector<ObstacleBox> more_posts_than_kept() {
+  std::vector<ObstacleBox> field;
+  for (std::uint32_t i = 0; i < mavlink::MavlinkUdpSink::kMaxKeptBoxes + 10; ++i) {
+    field.push_back(post(i, 20 + 2.0 * (i % 10), -20 + 2.0 * (i / 10)));
+  }
+  return field;
+}
+
+}  // namespace
+
 // ArduPilot keeps a point's body-frame vector as it comes: a scan sent between
 // map updates gives it for where the vehicle has flown to since, not for where
 // the update saw it from (else an obstacle ahead reads farther than it is).
@@ -217,17 +246,74 @@ TEST(MavlinkSink, ScansBetweenUpdatesAreForWhereTheVehicleIsNow) {
   Captured out;
   mavlink::MavlinkUdpSink sink(config_for("ardupilot"), out);
   const ObstacleBox ahead[] = {post(5, 20, 0)};  // its near face 19.5 m north
-  for (int k = 0; k < 2; ++k) {                  // north at 4 m/s, a frame each 0.1 s
-    hal::ObstacleUpdate u = update_of(ahead, 1, 0.1 * k);
-    u.world_T_body.translation().x() = 0.4 * k;
-    sink.publish(u, 0.1 * k);
-  }
+  fly_north_two_updates(sink, ahead, 1);
   ASSERT_FALSE(out.points.empty());
   EXPECT_NEAR(out.points.back().x, 19.1f, 1e-3) << "sent with the update: its own pose";
   sink.tick(0.4);  // 0.3 s on, no newer update: 1.2 m nearer
   EXPECT_EQ(out.points.back().time_boot_ms, 400u);
   EXPECT_NEAR(out.points.back().x, 17.9f, 1e-3);
   EXPECT_NEAR(out.points.back().y, 0.0f, 1e-3);
+}
+
+// The same for the sectors of OBSTACLE_DISTANCE (PX4, ArduPilot 2d), which both
+// autopilots take as they come: resent for where the vehicle has flown to.
+TEST(MavlinkSink, SectorsBetweenUpdatesAreForWhereTheVehicleIsNow) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("px4"), out);
+  const ObstacleBox ahead[] = {post(5, 20, 0)};  // its near face 19.5 m north
+  fly_north_two_updates(sink, ahead, 1);
+  ASSERT_EQ(out.sectors.size(), 2u);
+  EXPECT_EQ(out.sectors.back().distances[0], 1910) << "sent with the update: its own pose";
+  sink.tick(0.4);  // 0.3 s on, no newer update: 1.2 m nearer
+  ASSERT_EQ(out.sectors.size(), 3u);
+  EXPECT_NEAR(out.sectors.back().distances[0], 1790, 1);  // floored to the centimetre
+  EXPECT_EQ(out.sectors.back().distances[36], 5001) << "behind: still seen free";
+  EXPECT_EQ(out.sectors.back().time_usec, 400000u) << "the time it is for";
+  EXPECT_EQ(sink.sectors_from_kept(), 1);
+}
+
+// More obstacles within reach than the sink keeps: the update's sectors
+// re-expressed for where the vehicle is, never reading an obstacle farther.
+TEST(MavlinkSink, SectorsOfTooManyObstaclesAreReExpressedNeverFarther) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("px4"), out);
+  const std::vector<ObstacleBox> field = more_posts_than_kept();
+  fly_north_two_updates(sink, field.data(), field.size());
+  sink.tick(0.4);
+  ASSERT_EQ(out.sectors.size(), 3u);
+  EXPECT_EQ(sink.sectors_re_expressed(), 1);
+  const std::uint16_t* then = out.sectors[1].distances;
+  const std::uint16_t* now = out.sectors[2].distances;
+  EXPECT_NEAR(now[0], then[0] - 120, 3) << "1.2 m nearer ahead";
+  for (int s = 0; s < 72; ++s) {
+    if (then[s] <= 5000) {
+      EXPECT_LE(now[s], then[s]) << s;
+    }
+  }
+}
+
+// Between updates the sectors are computed on the output thread: without a
+// heap allocation, from kept obstacles or (too many) re-expressed.
+TEST(MavlinkSink, SectorsBetweenUpdatesAllocateNothing) {
+  struct Counting final : mavlink::DatagramOut {
+    int sent = 0;
+    bool send(const std::uint8_t*, std::size_t, double) override { return ++sent > 0; }
+  } out;
+  mavlink::MavlinkUdpSink sink(config_for("px4"), out);
+  const std::vector<ObstacleBox> field = more_posts_than_kept();
+  os::AllocationScope scope;
+  for (int k = 0; k < 20; ++k) {
+    const double t = 0.3 * k;
+    hal::ObstacleUpdate u = update_of(field.data(), k % 2 == 0 ? 2 : field.size(), t);
+    u.world_T_body.translation().x() = 1.2 * k;
+    sink.publish(u, t);
+    sink.tick(t + 0.1);
+    sink.tick(t + 0.2);
+  }
+  EXPECT_EQ(scope.counted().allocations, 0);
+  EXPECT_EQ(sink.sectors_from_kept(), 20);
+  EXPECT_EQ(sink.sectors_re_expressed(), 20);
+  EXPECT_GE(out.sent, 20 * 3);  // and heartbeats
 }
 
 // Nothing in range: one zero vector with the unknown id, so ArduPilot clears its

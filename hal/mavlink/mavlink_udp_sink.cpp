@@ -59,6 +59,12 @@ MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config)
       monitor_(static_cast<std::uint8_t>(config.system_id)) {
   ids_.system_id = static_cast<std::uint8_t>(config.system_id);
   ids_.component_id = static_cast<std::uint8_t>(config.component_id);
+  if (!send_3d_) {
+    kept_boxes_.resize(kMaxKeptBoxes);
+    kept_rects_.resize(kMaxKeptRects);
+    kept_offsets_.resize(kMaxKeptBoxes);
+    kept_counts_.resize(kMaxKeptBoxes);
+  }
 }
 
 MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config, DatagramOut& out)
@@ -116,6 +122,7 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
     distances_ =
         obstacle_distances(update.boxes, update.count, update.footprints(), update.world_T_body,
                            update.world_z_up, config_.sectors, update.sectors_observed);
+    keep_obstacles(update);
   } else {
     nearest_count_ = nearest_obstacles(
         update.boxes, update.count, update.footprints(), update.world_T_body, update.world_z_up,
@@ -125,11 +132,12 @@ void MavlinkUdpSink::publish(const hal::ObstacleUpdate& update, double now_s) {
     for (std::size_t i = 0; i < nearest_count_; ++i) {
       nearest_world_[i] = update.world_T_body * nearest_[i].body_frd;
     }
-    previous_pose_ = update_pose_;
-    previous_frame_s_ = update_frame_s_;
-    update_pose_ = update.world_T_body;
-    update_frame_s_ = update.time_s;
   }
+  previous_pose_ = update_pose_;
+  previous_frame_s_ = update_frame_s_;
+  update_pose_ = update.world_T_body;
+  update_frame_s_ = update.time_s;
+  world_z_up_ = update.world_z_up;
   time_usec_ = static_cast<std::uint64_t>(std::llround(std::max(update.time_s, 0.0) * 1e6));
   update_s_ = now_s;
   if (now_s < next_send_s_) {
@@ -191,9 +199,67 @@ void MavlinkUdpSink::send_obstacles(double now_s) {
     send_scan_3d(now_s);
     return;
   }
+  // The sectors from where the vehicle is now (as computed, at once), stamped with
+  // the time they are for: the update's frame time and the time since.
+  const ObstacleDistances moved = now_s > update_s_ ? sectors_now(now_s) : distances_;
+  const double ahead_s = std::clamp(now_s - update_s_, 0.0, PoseExtrapolationLimits{}.max_ahead_s);
+  const std::uint64_t time_usec =
+      time_usec_ + static_cast<std::uint64_t>(std::llround(ahead_s * 1e6));
   std::uint8_t frame[kMaxFrameBytes];
-  send(frame, encode_obstacle_distance(distances_, time_usec_, ids_, sequence_++, frame), now_s);
+  send(frame, encode_obstacle_distance(moved, time_usec, ids_, sequence_++, frame), now_s);
   ++obstacle_distance_;
+}
+
+// The update's obstacle boxes that a vehicle moving on for up to half a second
+// may have within max_distance, with their footprints, while they fit.
+void MavlinkUdpSink::keep_obstacles(const hal::ObstacleUpdate& update) {
+  const PoseExtrapolationLimits limits;
+  const double reach = config_.sectors.max_distance_m + limits.max_speed_mps * limits.max_ahead_s;
+  const Eigen::Vector2d position = update.world_T_body.translation().head<2>();
+  observed_ = update.sectors_observed;
+  kept_count_ = 0;
+  kept_all_ = true;
+  std::size_t rects = 0;
+  for (std::size_t b = 0; b < update.count && kept_all_; ++b) {
+    const ObstacleBox& box = update.boxes[b];
+    if (box.kind != FeatureKind::kObstacle) continue;
+    const Eigen::Vector2d lo(box.min.x(), box.min.y()), hi(box.max.x(), box.max.y());
+    if ((position.cwiseMax(lo).cwiseMin(hi) - position).norm() > reach) continue;
+    const std::uint32_t n = update.rect_counts != nullptr ? update.rect_counts[b] : 0;
+    if (kept_count_ == kMaxKeptBoxes || rects + n > kMaxKeptRects) {
+      kept_all_ = false;
+      break;
+    }
+    kept_boxes_[kept_count_] = box;
+    kept_offsets_[kept_count_] = static_cast<std::uint32_t>(rects);
+    kept_counts_[kept_count_] = n;
+    if (n > 0) {
+      std::copy_n(update.rects + update.rect_offsets[b], n, kept_rects_.begin() + rects);
+    }
+    rects += n;
+    ++kept_count_;
+  }
+}
+
+// The sectors from where the vehicle is now: the kept obstacles where they all
+// fit, else the update's sectors re-expressed.
+ObstacleDistances MavlinkUdpSink::sectors_now(double now_s) {
+  const Eigen::Isometry3d now = pose_now(now_s);
+  if (!kept_all_) {
+    ++sectors_re_expressed_;
+    return moved_obstacle_distances(distances_, update_pose_, now, world_z_up_);
+  }
+  ++sectors_from_kept_;
+  const FootprintView footprints{kept_rects_.data(), kept_offsets_.data(), kept_counts_.data()};
+  return obstacle_distances(kept_boxes_.data(), kept_count_, footprints, now, world_z_up_,
+                            config_.sectors,
+                            turned_sector_mask(observed_, update_pose_, now, world_z_up_));
+}
+
+// Where the vehicle is now, by the time since the newest update came.
+Eigen::Isometry3d MavlinkUdpSink::pose_now(double now_s) const {
+  return extrapolate_pose(previous_pose_, previous_frame_s_, update_pose_, update_frame_s_,
+                          now_s - update_s_);
 }
 
 // One scan: every point shares a time_boot_ms newer than the last scan's (the
@@ -215,11 +281,7 @@ void MavlinkUdpSink::send_scan_3d(double now_s) {
     ++empty_scans_3d_;
     return;
   }
-  // Where the vehicle is now, by the time since the update came.
-  const Eigen::Isometry3d body_T_world =
-      extrapolate_pose(previous_pose_, previous_frame_s_, update_pose_, update_frame_s_,
-                       now_s - update_s_)
-          .inverse();
+  const Eigen::Isometry3d body_T_world = pose_now(now_s).inverse();
   for (std::size_t i = 0; i < nearest_count_; ++i) {
     const Eigen::Vector3d body_frd = body_T_world * nearest_world_[i];
     o.obstacle_id = obstacle_id_3d(nearest_[i].id, nearest_[i].wedge);
@@ -239,6 +301,8 @@ void MavlinkUdpSink::report(hal::HealthSnapshot* h) const {
   h->add("mavlink_out_stale", stale_);
   h->add("mavlink_out_heartbeats", heartbeats_);
   h->add("mavlink_out_obstacle_distance", obstacle_distance_);
+  h->add("mavlink_out_sectors_moved", sectors_from_kept_);
+  h->add("mavlink_out_sectors_re_expressed", sectors_re_expressed_);
   h->add("mavlink_out_obstacles_3d", obstacles_3d_);
   h->add("mavlink_out_scans_3d", scans_3d_);
   h->add("mavlink_out_empty_scans_3d", empty_scans_3d_);

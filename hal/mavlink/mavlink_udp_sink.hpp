@@ -16,9 +16,15 @@
 //    as it comes, so a vector for where the vehicle was reads an obstacle ahead
 //    as farther than it is by the distance flown since.
 //  - ArduPilot, 2d, and PX4 (which reads no 3-D message): OBSTACLE_DISTANCE
-//    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the newest one is sent again
-// on the output thread's tick, until it is `stale_after_s` old: then only the
-// heartbeat goes, and the autopilots' own timeouts (0.5 s) say the data is gone.
+//    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the sectors
+//    are the newest update's obstacles from where the vehicle has moved to since
+//    (its obstacle boxes within reach kept, at most kMaxKeptBoxes with
+//    kMaxKeptRects footprint rectangles; past that its sectors re-expressed,
+//    moved_obstacle_distances: never farther, but spread), the seen sectors
+//    turned with the vehicle.
+// Between map updates the newest update is sent again on the output thread's
+// tick, until it is `stale_after_s` old: then only the heartbeat goes, and the
+// autopilots' own timeouts (0.5 s) say the data is gone.
 // Non-blocking: a send that cannot go is counted. What the autopilot sends back
 // to our port from the configured address (its heartbeats, SYS_STATUS) is read
 // on each tick, at most kMaxDatagramsPerTick, into the AutopilotMonitor's
@@ -27,6 +33,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "hal/mavlink/autopilot_monitor.hpp"
 #include "hal/mavlink/obstacle_distance_mavlink.hpp"
@@ -60,6 +67,7 @@ class DatagramOut {
 class MavlinkUdpSink final : public hal::ObstacleSink {
  public:
   static constexpr int kMaxObstacles3d = 64;
+  static constexpr std::size_t kMaxKeptBoxes = 256, kMaxKeptRects = 2048;
   explicit MavlinkUdpSink(const MavlinkUdpConfig& config);
   // Datagrams to `out`, not to a socket (no open()); the config must validate.
   MavlinkUdpSink(const MavlinkUdpConfig& config, DatagramOut& out);
@@ -86,10 +94,17 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   std::int64_t failed() const { return failed_; }
   // Updates that came sooner than 1 / rate_hz after the last message sent.
   std::int64_t rate_limited() const { return rate_limited_; }
+  // OBSTACLE_DISTANCE sent between updates: from the kept obstacles, or (too many
+  // to keep) the update's sectors re-expressed.
+  std::int64_t sectors_from_kept() const { return sectors_from_kept_; }
+  std::int64_t sectors_re_expressed() const { return sectors_re_expressed_; }
 
  private:
   void send_obstacles(double now_s);
   void send_scan_3d(double now_s);
+  Eigen::Isometry3d pose_now(double now_s) const;
+  void keep_obstacles(const hal::ObstacleUpdate& update);
+  ObstacleDistances sectors_now(double now_s);
   void receive(double now_s);
   void schedule_next(double now_s);
   bool can_send() const { return fd_ >= 0 || out_ != nullptr; }
@@ -108,12 +123,23 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   NearestObstacle nearest_[kMaxObstacles3d];
   std::size_t nearest_count_ = 0;
   // The nearest points in the world, and the vehicle's poses of the newest two
-  // updates (frame times): a scan sent later re-expresses them for where the
-  // vehicle has moved to since (extrapolate_pose), never for where it was.
+  // updates (frame times): a message sent later re-expresses the points, or the
+  // sectors (moved_obstacle_distances), for where the vehicle has moved to since
+  // (extrapolate_pose), never for where it was.
   Eigen::Vector3d nearest_world_[kMaxObstacles3d];
   Eigen::Isometry3d update_pose_ = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d previous_pose_ = Eigen::Isometry3d::Identity();
   double update_frame_s_ = -1e300, previous_frame_s_ = -1e300;
+  bool world_z_up_ = true;
+  // The newest update's obstacle boxes within reach and what it had seen (2-D),
+  // for the sectors of a message sent later; kept_all_ false: they did not fit.
+  std::vector<ObstacleBox> kept_boxes_;
+  std::vector<FootprintRect> kept_rects_;
+  std::vector<std::uint32_t> kept_offsets_, kept_counts_;
+  std::size_t kept_count_ = 0;
+  bool kept_all_ = false;
+  SectorMask observed_{};
+  std::int64_t sectors_from_kept_ = 0, sectors_re_expressed_ = 0;
   double update_s_ = -1e300, next_send_s_ = -1e300, last_heartbeat_s_ = -1e300;
   std::int64_t sent_ = 0, failed_ = 0, rate_limited_ = 0, resent_ = 0, stale_ = 0;
   std::int64_t heartbeats_ = 0, obstacles_3d_ = 0, updates_ = 0;

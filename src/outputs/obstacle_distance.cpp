@@ -187,6 +187,157 @@ ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count
 
 namespace {
 
+// Where the update's sectors leave an obstacle possible, or the unknown: the
+// edge of what they say is free (within max_distance of the update's position).
+struct BoundarySegment {
+  enum class Beyond : std::uint8_t { kObstacle, kUnknown, kOutOfRange };  // what may lie past it
+  Eigen::Vector2d a, b;                                                   // world x-y
+  Beyond beyond = Beyond::kObstacle;
+};
+constexpr int kMaxBoundarySegments = 2 * kObstacleSectors;  // an arc and an edge each
+constexpr double kEdgeMargin = 1e-7;                        // radians
+
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// The horizontal world direction (x-y) at `angle` clockwise from forward.
+Eigen::Vector2d direction_at(const HorizontalAxes& axes, double angle) {
+  const Eigen::Vector3d d = axes.forward * std::cos(angle) + axes.right * std::sin(angle);
+  return {d.x(), d.y()};
+}
+
+// How far each sector is known free: its obstacle's distance, max_distance
+// when seen free, 0 when unknown.
+double free_reach(const ObstacleDistances& d, int s) {
+  const std::uint16_t cm = d.distances_cm[s];
+  if (cm == kSectorUnknown) return 0.0;
+  if (cm > d.max_distance_cm) return d.max_distance_cm / 100.0;
+  return cm / 100.0;
+}
+
+// The arcs (as chords) of sectors with an obstacle or seen free to
+// max_distance, and the stretches of wedge edges between two sectors' reaches,
+// which belong to the nearer one's side.
+int boundary_segments(const ObstacleDistances& d, const HorizontalAxes& axes,
+                      const Eigen::Vector2d& origin, BoundarySegment* out) {
+  using Beyond = BoundarySegment::Beyond;
+  const auto beyond = [&](int s) {
+    if (d.distances_cm[s] == kSectorUnknown) return Beyond::kUnknown;
+    return d.distances_cm[s] > d.max_distance_cm ? Beyond::kOutOfRange : Beyond::kObstacle;
+  };
+  int n = 0;
+  for (int s = 0; s < kObstacleSectors; ++s) {
+    const double reach = free_reach(d, s);
+    if (beyond(s) != Beyond::kUnknown) {
+      out[n++] = {origin + reach * direction_at(axes, (s - 0.5) * kStep),
+                  origin + reach * direction_at(axes, (s + 0.5) * kStep), beyond(s)};
+    }
+    const int next = (s + 1) % kObstacleSectors;
+    const double next_reach = free_reach(d, next);
+    if (next_reach == reach) continue;
+    const Eigen::Vector2d edge = direction_at(axes, (s + 0.5) * kStep);
+    out[n++] = {origin + std::min(reach, next_reach) * edge,
+                origin + std::max(reach, next_reach) * edge, beyond(next_reach < reach ? next : s)};
+  }
+  return n;
+}
+
+// Distance from p to the nearest point of segment a-b inside the wedge between
+// directions e1 and e2 (less than 180 degrees apart); +inf when none is.
+double nearest_in_wedge(const Eigen::Vector2d& p, const Eigen::Vector2d& e1,
+                        const Eigen::Vector2d& e2, const BoundarySegment& segment) {
+  const Eigen::Vector2d u = segment.a - p, w = segment.b - segment.a;
+  const double sense = cross2(e1, e2) >= 0.0 ? 1.0 : -1.0;
+  double t0 = 0.0, t1 = 1.0;
+  // Inside: sense * (c0 + t c1) >= 0 for both edges.
+  const double c0[2] = {cross2(e1, u), cross2(u, e2)};
+  const double c1[2] = {cross2(e1, w), cross2(w, e2)};
+  for (int k = 0; k < 2; ++k) {
+    const double a0 = sense * c0[k], a1 = sense * c1[k];
+    if (std::abs(a1) < 1e-12) {
+      if (a0 < 0.0) return kInf;
+    } else if (a1 > 0.0) {
+      t0 = std::max(t0, -a0 / a1);
+    } else {
+      t1 = std::min(t1, -a0 / a1);
+    }
+  }
+  if (t0 > t1) return kInf;
+  const double length_squared = w.squaredNorm();
+  const double t = length_squared > 0.0 ? std::clamp(-u.dot(w) / length_squared, t0, t1) : t0;
+  return (u + t * w).norm();
+}
+
+}  // namespace
+
+ObstacleDistances moved_obstacle_distances(const ObstacleDistances& then_distances,
+                                           const Eigen::Isometry3d& world_T_body_then,
+                                           const Eigen::Isometry3d& world_T_body_now,
+                                           bool world_z_up) {
+  const HorizontalAxes then_axes = horizontal_axes(world_T_body_then, world_z_up);
+  const HorizontalAxes now_axes = horizontal_axes(world_T_body_now, world_z_up);
+  const Eigen::Vector2d origin = world_T_body_then.translation().head<2>();
+  const Eigen::Vector2d position = world_T_body_now.translation().head<2>();
+  if ((position - origin).norm() < 1e-3 && now_axes.forward.dot(then_axes.forward) > 1.0 - 1e-12) {
+    return then_distances;
+  }
+  BoundarySegment segments[kMaxBoundarySegments];
+  const int count = boundary_segments(then_distances, then_axes, origin, segments);
+  ObstacleDistances out = then_distances;
+  out.sectors_with_obstacle = 0;
+  out.sectors_unknown = 0;
+  const double min_m = then_distances.min_distance_cm / 100.0;
+  const double max_m = then_distances.max_distance_cm / 100.0;
+  for (int s = 0; s < kObstacleSectors; ++s) {
+    // A hair inside the wedge's edges: an edge lying on one (a pure turn by whole
+    // sectors) belongs to neither side rather than to the side rounding picks.
+    const Eigen::Vector2d e1 = direction_at(now_axes, (s - 0.5) * kStep + kEdgeMargin);
+    const Eigen::Vector2d e2 = direction_at(now_axes, (s + 0.5) * kStep - kEdgeMargin);
+    double nearest[3] = {kInf, kInf, kInf};  // by what lies beyond
+    for (int i = 0; i < count; ++i) {
+      double& to = nearest[static_cast<int>(segments[i].beyond)];
+      to = std::min(to, nearest_in_wedge(position, e1, e2, segments[i]));
+    }
+    const double obstacle = nearest[0], unknown = nearest[1], out_of_range = nearest[2];
+    if (obstacle <= max_m) {
+      out.distances_cm[s] = static_cast<std::uint16_t>(
+          std::min(std::floor(std::max(obstacle, min_m) * 100.0), 65533.0));
+      ++out.sectors_with_obstacle;
+    } else if (unknown <= max_m || (unknown == kInf && out_of_range == kInf)) {
+      // Part of the wedge was never seen, or all of it (the vehicle stands in it).
+      out.distances_cm[s] = kSectorUnknown;
+      ++out.sectors_unknown;
+    } else {
+      out.distances_cm[s] = static_cast<std::uint16_t>(then_distances.max_distance_cm + 1);
+    }
+  }
+  return out;
+}
+
+SectorMask turned_sector_mask(const SectorMask& observed,
+                              const Eigen::Isometry3d& world_T_body_then,
+                              const Eigen::Isometry3d& world_T_body_now, bool world_z_up) {
+  const HorizontalAxes then_axes = horizontal_axes(world_T_body_then, world_z_up);
+  const HorizontalAxes now_axes = horizontal_axes(world_T_body_now, world_z_up);
+  // Clockwise turn from then to now, in sectors.
+  const double turned =
+      std::atan2(now_axes.forward.dot(then_axes.right), now_axes.forward.dot(then_axes.forward)) /
+      kStep;
+  SectorMask out;
+  for (int s = 0; s < kObstacleSectors; ++s) {
+    // Sector s now covers [s - 1/2, s + 1/2) + turned of then's sectors.
+    const int first = static_cast<int>(std::floor(s + turned + 1e-9));
+    const int last = static_cast<int>(std::floor(s + turned + 1.0 - 1e-9));
+    bool seen = true;
+    for (int k = first; k <= last; ++k) seen = seen && observed[wrap_wedge(k, kObstacleSectors)];
+    out[static_cast<std::size_t>(s)] = seen;
+  }
+  return out;
+}
+
+namespace {
+
 // Heights sampled at each step, from the vehicle's down to the band's bottom.
 constexpr int kSeenHeights = 5;
 constexpr double kUnseenTailShare = 0.2;

@@ -67,6 +67,32 @@ ObstacleDistances obstacle_distances(const ObstacleBox* boxes, std::size_t count
                                      const Eigen::Isometry3d& world_T_body, bool world_z_up,
                                      const SectorConfig& config, const SectorMask& observed);
 
+// The sectors of an update as they read from where the vehicle has moved to
+// since (then -> now: position and heading), for a message resent between
+// updates: an autopilot takes each sector as it comes, so sectors for where the
+// vehicle was read an obstacle ahead farther than it is. All a sector says is
+// that its wedge's nearest obstacle lies on the arc at its distance, so each is
+// taken as possibly occupied from that arc outwards (a chord: never farther),
+// bounded along the wedge edges where its neighbours read farther; a sector
+// seen free is free out to max_distance, one unknown is unknown. Per sector
+// now: the nearest possibly occupied point inside its wedge, else unknown where
+// an unknown wedge's edge lies inside it within max_distance, else free. An
+// obstacle may spread into a neighbour sector (where it could be); it never
+// reads farther than the update allows. Unmoved: the sectors as they were.
+// Allocation-free, O(sectors^2).
+ObstacleDistances moved_obstacle_distances(const ObstacleDistances& then_distances,
+                                           const Eigen::Isometry3d& world_T_body_then,
+                                           const Eigen::Isometry3d& world_T_body_now,
+                                           bool world_z_up);
+
+// Which sectors are observed for a vehicle turned since the mask was made
+// (then -> now, heading only: what the map saw lies in directions, and a resend
+// comes within half a second): a sector now is observed when every sector it
+// overlaps then was.
+SectorMask turned_sector_mask(const SectorMask& observed,
+                              const Eigen::Isometry3d& world_T_body_then,
+                              const Eigen::Isometry3d& world_T_body_now, bool world_z_up);
+
 // A sector counts as observed when each of three lines of its wedge (its centre
 // line and 0.4 of a sector either side), from min_distance out to max_distance a
 // cell a step, has at least four steps inside the zones holding a grid, at least

@@ -1,5 +1,6 @@
 // The 72-sector obstacle distances in the body frame: nearest first, unseen
-// sectors unknown, footprints tighter than boxes, the exact wedge distance.
+// sectors unknown, footprints tighter than boxes, the exact wedge distance,
+// sectors resent for where the vehicle has moved to.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -233,4 +234,97 @@ TEST(ObstacleDistance, ExactWedgeDistanceAgreesWithDenseSampling) {
       EXPECT_GE(d.distances_cm[s], sampled * 100.0 - 15.0) << "trial " << trial << " sector " << s;
     }
   }
+}
+
+namespace {
+
+Eigen::Isometry3d ned_pose(double north, double east, double heading) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(north, east, -10);
+  return pose;
+}
+
+}  // namespace
+
+// Resent between updates, the sectors read from where the vehicle is now: an
+// obstacle ahead nearer by the distance flown, a turn shifts them, and nothing
+// changes for a vehicle that has not moved.
+TEST(ObstacleDistance, MovedSectorsReadFromWhereTheVehicleIsNow) {
+  const ObstacleBox wall = box({19.5, -3, -20}, {20.5, 3, 0});  // 19.5 m north, 6 m wide
+  const Eigen::Isometry3d then = ned_pose(0, 0, 0);
+  const ObstacleDistances at_update =
+      obstacle_distances(&wall, 1, {}, then, false, SectorConfig{}, kAllSeen);
+  ASSERT_EQ(at_update.distances_cm[0], 1950);
+
+  const ObstacleDistances same = moved_obstacle_distances(at_update, then, then, false);
+  EXPECT_TRUE(std::equal(std::begin(same.distances_cm), std::end(same.distances_cm),
+                         std::begin(at_update.distances_cm)));
+
+  const ObstacleDistances ahead =
+      moved_obstacle_distances(at_update, then, ned_pose(1.2, 0, 0), false);
+  EXPECT_NEAR(ahead.distances_cm[0], 1830, 2);  // the arc's chord: at most 0.1% nearer
+  EXPECT_EQ(ahead.distances_cm[36], at_update.distances_cm[36]) << "behind: seen free";
+
+  // Turned 10 degrees right (clockwise from above): what was sector 2 is now sector 0.
+  const ObstacleDistances turned =
+      moved_obstacle_distances(at_update, then, ned_pose(0, 0, 10 * M_PI / 180), false);
+  for (int s = 0; s < 72; ++s) {
+    const int was = (s + 2) % 72;
+    if (at_update.distances_cm[was] > at_update.max_distance_cm) {
+      EXPECT_EQ(turned.distances_cm[s], at_update.distances_cm[was]) << s;
+    } else {
+      EXPECT_LE(turned.distances_cm[s], at_update.distances_cm[was]) << s;
+      EXPECT_GE(turned.distances_cm[s], at_update.distances_cm[was] * 0.998) << s;
+    }
+  }
+}
+
+// Whatever the field and however the vehicle moved (up to 2 m and 15 degrees),
+// every sector that has an obstacle from where it is now reads one no farther,
+// one the update's sectors could not rule out; unseen sectors stay unknown.
+TEST(ObstacleDistance, MovedSectorsNeverReadFartherThanTheObstacles) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  SectorMask seen = kAllSeen;
+  for (int s = 40; s < 50; ++s) seen[static_cast<std::size_t>(s)] = false;  // behind, left
+  int checked = 0, spread = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<ObstacleBox> boxes;
+    for (int i = 0; i < 6; ++i) {
+      const double r = 5.0 + 35.0 * unit(rng), a = 2 * M_PI * unit(rng);
+      const Eigen::Vector3d c(r * std::cos(a), r * std::sin(a), 0);
+      const Eigen::Vector3d half(0.3 + 3 * unit(rng), 0.3 + 3 * unit(rng), 0);
+      boxes.push_back(box(c - half - Eigen::Vector3d(0, 0, 20), c + half));
+    }
+    const Eigen::Isometry3d then = ned_pose(0, 0, 2 * M_PI * unit(rng));
+    const double step = 2.0 * unit(rng), dir = 2 * M_PI * unit(rng);
+    const Eigen::Isometry3d now = ned_pose(
+        step * std::cos(dir), step * std::sin(dir),
+        std::atan2(then.linear()(1, 0), then.linear()(0, 0)) + (unit(rng) - 0.5) * 30 * M_PI / 180);
+    const ObstacleDistances at_update =
+        obstacle_distances(boxes.data(), boxes.size(), {}, then, false, SectorConfig{}, seen);
+    const ObstacleDistances truth =
+        obstacle_distances(boxes.data(), boxes.size(), {}, now, false, SectorConfig{}, kAllSeen);
+    const ObstacleDistances moved = moved_obstacle_distances(at_update, then, now, false);
+    for (int s = 0; s < 72; ++s) {
+      if (truth.distances_cm[s] > truth.max_distance_cm) {  // no obstacle there now
+        spread += moved.distances_cm[s] <= moved.max_distance_cm;
+        continue;
+      }
+      ++checked;
+      ASSERT_LE(moved.distances_cm[s], truth.distances_cm[s] + 1)
+          << "trial " << trial << " sector " << s;
+    }
+  }
+  EXPECT_GT(checked, 2000);
+  // What it costs: obstacles spread into sectors where they could be (measured 25%).
+  EXPECT_LT(spread, checked * 3 / 10);
+  // The unseen wedge of a vehicle that did not turn stays unknown where nothing stands.
+  const ObstacleDistances empty =
+      obstacle_distances(nullptr, 0, {}, ned_pose(0, 0, 0), false, SectorConfig{}, seen);
+  const ObstacleDistances moved =
+      moved_obstacle_distances(empty, ned_pose(0, 0, 0), ned_pose(1, 0, 0), false);
+  for (int s = 41; s < 49; ++s) EXPECT_EQ(moved.distances_cm[s], kSectorUnknown) << s;
+  EXPECT_EQ(moved.distances_cm[0], empty.max_distance_cm + 1);
 }

@@ -328,3 +328,19 @@ TEST(ObstacleDistance, MovedSectorsNeverReadFartherThanTheObstacles) {
   for (int s = 41; s < 49; ++s) EXPECT_EQ(moved.distances_cm[s], kSectorUnknown) << s;
   EXPECT_EQ(moved.distances_cm[0], empty.max_distance_cm + 1);
 }
+
+// Turned right by two sectors, what was seen from ahead to the right is seen from
+// two sectors left of ahead; turned by a sector and a half, a sector is seen only
+// where both it overlaps were; the position plays no part.
+TEST(ObstacleDistance, TheSeenSectorsTurnWithTheVehicle) {
+  SectorMask seen{};
+  for (int s = 0; s <= 10; ++s) seen[static_cast<std::size_t>(s)] = true;  // 0..50 deg right
+  const Eigen::Isometry3d then = ned_pose(0, 0, 0);
+  const SectorMask by_two = turned_sector_mask(seen, then, ned_pose(3, 1, 10 * M_PI / 180), false);
+  for (int s = 0; s < 72; ++s) EXPECT_EQ(by_two[s], s <= 8 || s >= 70) << s;
+  const SectorMask by_one_and_half =
+      turned_sector_mask(seen, then, ned_pose(0, 0, 7.5 * M_PI / 180), false);
+  for (int s = 0; s < 72; ++s) EXPECT_EQ(by_one_and_half[s], s <= 8 || s == 71) << s;
+  const SectorMask left = turned_sector_mask(seen, then, ned_pose(0, 0, -10 * M_PI / 180), false);
+  for (int s = 0; s < 72; ++s) EXPECT_EQ(left[s], s >= 2 && s <= 12) << s;
+}

@@ -5,9 +5,10 @@
 # private network namespace: ArduPilot listens on every
 # interface. Exit 77 (skipped, with the reason) without ArduPilot's SITL build
 # (../shared/sitl beside the clone), Node.js, node-mavlink or a namespace.
-#   run_sitl_proximity.sh SIM DAEMON SOURCE_DIR SITL_DIR WORK_DIR
+# With MESSAGES 2d the daemon sends OBSTACLE_DISTANCE's sectors (PX4's message).
+#   run_sitl_proximity.sh SIM DAEMON SOURCE_DIR SITL_DIR WORK_DIR [MESSAGES]
 set -e
-sim=$1 daemon=$2 source=$3 sitl=$4 work=$5
+sim=$1 daemon=$2 source=$3 sitl=$4 work=$5 messages=${6:-3d}
 if [ ! -x "$sitl/arducopter" ]; then
   echo "SKIP: no ArduPilot SITL build at $sitl (the shared folder beside the clone holds it)"
   exit 77
@@ -20,4 +21,5 @@ mkdir -p "$work"
 "$sim" posts-staggered "$work/seq-ned" --width 320 --rate 10 --frames 60 >/dev/null
 echo "world_z_up: false" >>"$work/seq-ned/camera.yaml"
 exec "$source/tests/netns/in_private_netns.sh" node "$source/tests/js/sitl_proximity.mjs" \
-  "$sitl" "$daemon" "$work/seq" "$source/config/paper-flight2.yaml" "$work/run" "$work/seq-ned"
+  "$sitl" "$daemon" "$work/seq" "$source/config/paper-flight2.yaml" "$work/run" "$work/seq-ned" \
+  "$messages"

@@ -185,7 +185,10 @@ bool VehicleDaemon::open_sinks(std::string* error) {
     sinks_.push_back(std::make_unique<lcm_link::LcmObstacleSink>(lcm));
   }
   if (config.mavlink_output) {
-    auto mavlink = std::make_unique<mavlink::MavlinkUdpSink>(config.mavlink);
+    mavlink::MavlinkUdpConfig link = config.mavlink;
+    link.kept_boxes = features_->capacity();  // the merged output's sizes: every box fits
+    link.kept_rects = runtime::PipelineOptions{}.footprint_rects;
+    auto mavlink = std::make_unique<mavlink::MavlinkUdpSink>(link);
     if (!mavlink->open(error)) return false;
     sinks_.push_back(std::move(mavlink));
   }

@@ -231,7 +231,7 @@ void fly_north_two_updates(mavlink::MavlinkUdpSink& sink, const ObstacleBox* box
 // A grid of posts 2 m apart from 20 m ahead, more than a 2-D sink keeps.
 std::vector<ObstacleBox> more_posts_than_kept() {
   std::vector<ObstacleBox> field;
-  for (std::uint32_t i = 0; i < mavlink::MavlinkUdpSink::kMaxKeptBoxes + 10; ++i) {
+  for (std::uint32_t i = 0; i < mavlink::MavlinkUdpConfig{}.kept_boxes + 10; ++i) {
     field.push_back(post(i, 20 + 2.0 * (i % 10), -20 + 2.0 * (i / 10)));
   }
   return field;

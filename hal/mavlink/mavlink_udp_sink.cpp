@@ -60,10 +60,10 @@ MavlinkUdpSink::MavlinkUdpSink(const MavlinkUdpConfig& config)
   ids_.system_id = static_cast<std::uint8_t>(config.system_id);
   ids_.component_id = static_cast<std::uint8_t>(config.component_id);
   if (!send_3d_) {
-    kept_boxes_.resize(kMaxKeptBoxes);
-    kept_rects_.resize(kMaxKeptRects);
-    kept_offsets_.resize(kMaxKeptBoxes);
-    kept_counts_.resize(kMaxKeptBoxes);
+    kept_boxes_.resize(config.kept_boxes);
+    kept_rects_.resize(config.kept_rects);
+    kept_offsets_.resize(config.kept_boxes);
+    kept_counts_.resize(config.kept_boxes);
   }
 }
 
@@ -226,7 +226,7 @@ void MavlinkUdpSink::keep_obstacles(const hal::ObstacleUpdate& update) {
     const Eigen::Vector2d lo(box.min.x(), box.min.y()), hi(box.max.x(), box.max.y());
     if ((position.cwiseMax(lo).cwiseMin(hi) - position).norm() > reach) continue;
     const std::uint32_t n = update.rect_counts != nullptr ? update.rect_counts[b] : 0;
-    if (kept_count_ == kMaxKeptBoxes || rects + n > kMaxKeptRects) {
+    if (kept_count_ == kept_boxes_.size() || rects + n > kept_rects_.size()) {
       kept_all_ = false;
       break;
     }

@@ -18,8 +18,8 @@
 //  - ArduPilot, 2d, and PX4 (which reads no 3-D message): OBSTACLE_DISTANCE
 //    alone, 72 sectors of 5 degrees, BODY_FRD. Between map updates the sectors
 //    are the newest update's obstacles from where the vehicle has moved to since
-//    (its obstacle boxes within reach kept, at most kMaxKeptBoxes with
-//    kMaxKeptRects footprint rectangles; past that its sectors re-expressed,
+//    (its obstacle boxes within reach kept, at most kept_boxes with kept_rects
+//    footprint rectangles; past that its sectors re-expressed,
 //    moved_obstacle_distances: never farther, but spread), the seen sectors
 //    turned with the vehicle.
 // Between map updates the newest update is sent again on the output thread's
@@ -52,6 +52,11 @@ struct MavlinkUdpConfig {
   int max_obstacles_3d = 32;   // OBSTACLE_DISTANCE_3D points a scan, [8, 64]
   double stale_after_s = 0.5;  // stop re-sending an update this old
   SectorConfig sectors;
+  // 2-D: the newest update's obstacle boxes (and footprint rectangles) kept for
+  // the sectors sent between updates, reserved at start; the daemon sizes them as
+  // the feature map's merged output, so that they always fit.
+  std::size_t kept_boxes = 256;
+  std::size_t kept_rects = 2048;
 };
 
 // Empty when usable, else why not.
@@ -67,7 +72,6 @@ class DatagramOut {
 class MavlinkUdpSink final : public hal::ObstacleSink {
  public:
   static constexpr int kMaxObstacles3d = 64;
-  static constexpr std::size_t kMaxKeptBoxes = 256, kMaxKeptRects = 2048;
   explicit MavlinkUdpSink(const MavlinkUdpConfig& config);
   // Datagrams to `out`, not to a socket (no open()); the config must validate.
   MavlinkUdpSink(const MavlinkUdpConfig& config, DatagramOut& out);

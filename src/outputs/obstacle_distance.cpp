@@ -194,7 +194,7 @@ struct BoundarySegment {
   Eigen::Vector2d a, b;                                                   // world x-y
   Beyond beyond = Beyond::kObstacle;
 };
-constexpr int kMaxBoundarySegments = 2 * kObstacleSectors;  // an arc and an edge each
+constexpr int kMaxBoundarySegments = 3 * kObstacleSectors;  // an arc, two edge stretches
 constexpr double kEdgeMargin = 1e-7;                        // radians
 
 double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -217,8 +217,9 @@ double free_reach(const ObstacleDistances& d, int s) {
 }
 
 // The arcs (as chords) of sectors with an obstacle or seen free to
-// max_distance, and the stretches of wedge edges between two sectors' reaches,
-// which belong to the nearer one's side.
+// max_distance, the stretches of wedge edges between two sectors' reaches,
+// which belong to the nearer one's side, and past an obstacle's reach the
+// stretch of its edge with an unknown wedge, out to max_distance.
 int boundary_segments(const ObstacleDistances& d, const HorizontalAxes& axes,
                       const Eigen::Vector2d& origin, BoundarySegment* out) {
   using Beyond = BoundarySegment::Beyond;
@@ -237,10 +238,29 @@ int boundary_segments(const ObstacleDistances& d, const HorizontalAxes& axes,
     const double next_reach = free_reach(d, next);
     if (next_reach == reach) continue;
     const Eigen::Vector2d edge = direction_at(axes, (s + 0.5) * kStep);
+    const Beyond near_side = beyond(next_reach < reach ? next : s);
     out[n++] = {origin + std::min(reach, next_reach) * edge,
-                origin + std::max(reach, next_reach) * edge, beyond(next_reach < reach ? next : s)};
+                origin + std::max(reach, next_reach) * edge, near_side};
+    // Past an obstacle's arc beside an unknown wedge: from the unknown side the
+    // edge leads into where the obstacle may be.
+    if (near_side == Beyond::kUnknown &&
+        beyond(next_reach < reach ? s : next) == Beyond::kObstacle) {
+      out[n++] = {origin + std::max(reach, next_reach) * edge,
+                  origin + d.max_distance_cm / 100.0 * edge, Beyond::kObstacle};
+    }
   }
   return n;
+}
+
+// Whether `moved` (world x-y, from the update's position) lies in a wedge with
+// an obstacle, at or past its distance: where the obstacle may stand.
+bool past_an_obstacles_reach(const ObstacleDistances& d, const HorizontalAxes& axes,
+                             const Eigen::Vector2d& moved) {
+  const Eigen::Vector3d moved3(moved.x(), moved.y(), 0.0);
+  const Eigen::Vector2d body(moved3.dot(axes.forward), moved3.dot(axes.right));
+  const int s = wrap_wedge(wedge_of(clockwise_angle(body), kStep), kObstacleSectors);
+  const std::uint16_t cm = d.distances_cm[s];
+  return cm != kSectorUnknown && cm <= d.max_distance_cm && moved.norm() >= cm / 100.0;
 }
 
 // Distance from p to the nearest point of segment a-b inside the wedge between
@@ -289,6 +309,12 @@ ObstacleDistances moved_obstacle_distances(const ObstacleDistances& then_distanc
   out.sectors_unknown = 0;
   const double min_m = then_distances.min_distance_cm / 100.0;
   const double max_m = then_distances.max_distance_cm / 100.0;
+  if (past_an_obstacles_reach(then_distances, then_axes, position - origin)) {
+    // Moved to where the update's obstacle may stand: blocked all round.
+    std::fill(std::begin(out.distances_cm), std::end(out.distances_cm), out.min_distance_cm);
+    out.sectors_with_obstacle = kObstacleSectors;
+    return out;
+  }
   for (int s = 0; s < kObstacleSectors; ++s) {
     // A hair inside the wedge's edges: an edge lying on one (a pure turn by whole
     // sectors) belongs to neither side rather than to the side rounding picks.

@@ -225,7 +225,10 @@ void MavlinkUdpSink::keep_obstacles(const hal::ObstacleUpdate& update) {
     if (box.kind != FeatureKind::kObstacle) continue;
     const Eigen::Vector2d lo(box.min.x(), box.min.y()), hi(box.max.x(), box.max.y());
     if ((position.cwiseMax(lo).cwiseMin(hi) - position).norm() > reach) continue;
-    const std::uint32_t n = update.rect_counts != nullptr ? update.rect_counts[b] : 0;
+    // Without all three footprint arrays a box is its own rectangle (FootprintView).
+    const bool shaped =
+        update.rect_counts != nullptr && update.rect_offsets != nullptr && update.rects != nullptr;
+    const std::uint32_t n = shaped ? update.rect_counts[b] : 0;
     if (kept_count_ == kept_boxes_.size() || rects + n > kept_rects_.size()) {
       kept_all_ = false;
       break;

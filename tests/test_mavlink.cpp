@@ -272,6 +272,27 @@ TEST(MavlinkSink, SectorsBetweenUpdatesAreForWhereTheVehicleIsNow) {
   EXPECT_EQ(sink.sectors_from_kept(), 1);
 }
 
+// With no motion to go by (one update, or one after a jump) the sectors resent
+// stand for the update's pose: stamped with the update's time, not a later one.
+TEST(MavlinkSink, SectorsNotMovedKeepTheUpdatesTime) {
+  Captured out;
+  mavlink::MavlinkUdpSink sink(config_for("px4"), out);
+  const ObstacleBox ahead[] = {post(5, 20, 0)};
+  sink.publish(update_of(ahead, 1, 0.1), 0.1);
+  sink.tick(0.4);
+  ASSERT_EQ(out.sectors.size(), 2u);
+  EXPECT_EQ(out.sectors.back().distances[0], 1950) << "the update's own pose";
+  EXPECT_EQ(out.sectors.back().time_usec, 100000u) << "the time its pose is for";
+  hal::ObstacleUpdate jumped = update_of(ahead, 1, 0.5);
+  jumped.world_T_body.translation().x() = -30.0;  // 75 m/s: a re-anchored track
+  sink.publish(jumped, 0.5);
+  sink.tick(0.8);
+  ASSERT_EQ(out.sectors.size(), 4u);
+  EXPECT_EQ(out.sectors.back().distances[0], 4950);
+  EXPECT_EQ(out.sectors.back().time_usec, 500000u);
+  EXPECT_EQ(sink.sectors_from_kept(), 0);
+}
+
 // More obstacles within reach than the sink keeps: the update's sectors
 // re-expressed for where the vehicle is, never reading an obstacle farther.
 TEST(MavlinkSink, SectorsOfTooManyObstaclesAreReExpressedNeverFarther) {
@@ -311,7 +332,8 @@ TEST(MavlinkSink, SectorsBetweenUpdatesAllocateNothing) {
     sink.tick(t + 0.2);
   }
   EXPECT_EQ(scope.counted().allocations, 0);
-  EXPECT_EQ(sink.sectors_from_kept(), 20);
+  // The first update has no motion to go by: its two resends are its own sectors.
+  EXPECT_EQ(sink.sectors_from_kept(), 18);
   EXPECT_EQ(sink.sectors_re_expressed(), 20);
   EXPECT_GE(out.sent, 20 * 3);  // and heartbeats
 }

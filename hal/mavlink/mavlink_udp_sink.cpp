@@ -200,9 +200,10 @@ void MavlinkUdpSink::send_obstacles(double now_s) {
     return;
   }
   // The sectors from where the vehicle is now (as computed, at once), stamped with
-  // the time they are for: the update's frame time and the time since.
-  const ObstacleDistances moved = now_s > update_s_ ? sectors_now(now_s) : distances_;
-  const double ahead_s = std::clamp(now_s - update_s_, 0.0, PoseExtrapolationLimits{}.max_ahead_s);
+  // the time they are for: the update's frame time and the time the pose moved on
+  // by (none where there was no motion to go by: they stand for the update's pose).
+  const double ahead_s = pose_ahead_s(now_s);
+  const ObstacleDistances moved = ahead_s > 0.0 ? sectors_now(now_s) : distances_;
   const std::uint64_t time_usec =
       time_usec_ + static_cast<std::uint64_t>(std::llround(ahead_s * 1e6));
   std::uint8_t frame[kMaxFrameBytes];
@@ -220,14 +221,14 @@ void MavlinkUdpSink::keep_obstacles(const hal::ObstacleUpdate& update) {
   kept_count_ = 0;
   kept_all_ = true;
   std::size_t rects = 0;
+  // Without all three footprint arrays a box is its own rectangle (FootprintView).
+  const bool shaped =
+      update.rect_counts != nullptr && update.rect_offsets != nullptr && update.rects != nullptr;
   for (std::size_t b = 0; b < update.count && kept_all_; ++b) {
     const ObstacleBox& box = update.boxes[b];
     if (box.kind != FeatureKind::kObstacle) continue;
     const Eigen::Vector2d lo(box.min.x(), box.min.y()), hi(box.max.x(), box.max.y());
     if ((position.cwiseMax(lo).cwiseMin(hi) - position).norm() > reach) continue;
-    // Without all three footprint arrays a box is its own rectangle (FootprintView).
-    const bool shaped =
-        update.rect_counts != nullptr && update.rect_offsets != nullptr && update.rects != nullptr;
     const std::uint32_t n = shaped ? update.rect_counts[b] : 0;
     if (kept_count_ == kept_boxes_.size() || rects + n > kept_rects_.size()) {
       kept_all_ = false;
@@ -263,6 +264,12 @@ ObstacleDistances MavlinkUdpSink::sectors_now(double now_s) {
 Eigen::Isometry3d MavlinkUdpSink::pose_now(double now_s) const {
   return extrapolate_pose(previous_pose_, previous_frame_s_, update_pose_, update_frame_s_,
                           now_s - update_s_);
+}
+
+// How far pose_now moves the update's pose on: 0 where it keeps it.
+double MavlinkUdpSink::pose_ahead_s(double now_s) const {
+  return extrapolated_ahead_s(previous_pose_, previous_frame_s_, update_pose_, update_frame_s_,
+                              now_s - update_s_);
 }
 
 // One scan: every point shares a time_boot_ms newer than the last scan's (the

@@ -107,6 +107,7 @@ class MavlinkUdpSink final : public hal::ObstacleSink {
   void send_obstacles(double now_s);
   void send_scan_3d(double now_s);
   Eigen::Isometry3d pose_now(double now_s) const;
+  double pose_ahead_s(double now_s) const;
   void keep_obstacles(const hal::ObstacleUpdate& update);
   ObstacleDistances sectors_now(double now_s);
   void receive(double now_s);

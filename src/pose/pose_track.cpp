@@ -60,14 +60,23 @@ PoseLookup PoseTrack::lookup(double t, Eigen::Isometry3d* out) const {
   return PoseLookup::kNoPose;
 }
 
+double extrapolated_ahead_s(const Eigen::Isometry3d& previous, double previous_s,
+                            const Eigen::Isometry3d& last, double last_s, double ahead_s,
+                            const PoseExtrapolationLimits& limits) {
+  const double span = last_s - previous_s;
+  if (!(ahead_s > 0.0) || !(span > 0.0) || !(span <= limits.max_span_s)) return 0.0;
+  const double speed = (last.translation() - previous.translation()).norm() / span;
+  if (!(speed <= limits.max_speed_mps)) return 0.0;
+  return std::min(ahead_s, limits.max_ahead_s);
+}
+
 Eigen::Isometry3d extrapolate_pose(const Eigen::Isometry3d& previous, double previous_s,
                                    const Eigen::Isometry3d& last, double last_s, double ahead_s,
                                    const PoseExtrapolationLimits& limits) {
+  const double ahead = extrapolated_ahead_s(previous, previous_s, last, last_s, ahead_s, limits);
+  if (ahead == 0.0) return last;
   const double span = last_s - previous_s;
-  if (!(ahead_s > 0.0) || !(span > 0.0) || !(span <= limits.max_span_s)) return last;
   const Eigen::Vector3d velocity = (last.translation() - previous.translation()) / span;
-  if (!(velocity.norm() <= limits.max_speed_mps)) return last;
-  const double ahead = std::min(ahead_s, limits.max_ahead_s);
   // The turn from previous to last, in last's frame, scaled to `ahead`.
   const Eigen::AngleAxisd turn(previous.linear().transpose() * last.linear());
   Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();

@@ -59,5 +59,10 @@ struct PoseExtrapolationLimits {
 Eigen::Isometry3d extrapolate_pose(const Eigen::Isometry3d& previous, double previous_s,
                                    const Eigen::Isometry3d& last, double last_s, double ahead_s,
                                    const PoseExtrapolationLimits& limits = {});
+// The time extrapolate_pose moves `last` on by: ahead_s capped at max_ahead_s, or
+// 0 where it keeps `last` (no motion to go by), so a stamp can say which.
+double extrapolated_ahead_s(const Eigen::Isometry3d& previous, double previous_s,
+                            const Eigen::Isometry3d& last, double last_s, double ahead_s,
+                            const PoseExtrapolationLimits& limits = {});
 
 }  // namespace zonemap

@@ -64,5 +64,15 @@ TEST(PoseExtrapolation, MovesOnAsTheLastTwoPosesMovedWithinItsLimits) {
   EXPECT_TRUE(unmoved(extrapolate_pose(pose_at(-100.0, 0.0), 5.0, last, 5.1, 0.3)));
 }
 
+// The time a pose was moved on by, as extrapolate_pose moved it: 0 where it kept it.
+TEST(PoseExtrapolation, SaysHowFarAheadItMoved) {
+  const Eigen::Isometry3d previous = pose_at(0.0, 0.0), last = pose_at(0.4, 0.03);
+  EXPECT_DOUBLE_EQ(extrapolated_ahead_s(previous, 5.0, last, 5.1, 0.3), 0.3);
+  EXPECT_DOUBLE_EQ(extrapolated_ahead_s(previous, 5.0, last, 5.1, 3.0), 0.5);
+  EXPECT_EQ(extrapolated_ahead_s(previous, 3.0, last, 5.1, 0.3), 0.0);
+  EXPECT_EQ(extrapolated_ahead_s(pose_at(-100.0, 0.0), 5.0, last, 5.1, 0.3), 0.0);
+  EXPECT_EQ(extrapolated_ahead_s(previous, 5.0, last, 5.1, std::nan("")), 0.0);
+}
+
 }  // namespace
 }  // namespace zonemap

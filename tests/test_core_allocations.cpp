@@ -48,6 +48,7 @@ TEST(Mapper, NoHeapAllocationAfterInit) {
   config.cell_size_m = 0.5;
   config.d_min_m = 1.0;
   config.d_max_m = 15.0;
+  config.blur_keep_near_m = 8.0;  // its cube reserved at start too
   CameraModel camera;
   camera.width = 64;
   camera.height = 48;

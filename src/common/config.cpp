@@ -35,6 +35,9 @@ bool map_and_sensor_wrong(const MapConfig& c, std::ostringstream& why) {
     why << "sensor.see_through_behind must be in [0, see_through] (or -1: see_through)";
   } else if (c.blur_radius < 0 || c.blur_radius > 2) {
     why << "blur.radius must be 0, 1 or 2";
+  } else if (!(c.blur_keep_near_m >= 0.0) ||
+             c.blur_keep_near_m > MapConfig::kMaxKeepNearCells * c.cell_size_m) {
+    why << "blur.keep_near_m must be in [0, " << MapConfig::kMaxKeepNearCells << " cells] (0: off)";
   } else {
     return false;
   }

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <limits>
 
+#include "zonemap/common/config.hpp"
+
 namespace zonemap {
 namespace {
 
@@ -92,7 +94,11 @@ std::size_t LocalGrid::reserved_bytes() const {
          kMaxFinishParts *
              ((row + 2 * kMaxBlurRadius) * sizeof(std::int16_t) +
               row * (2 * kMaxBlurRadius + 1) * sizeof(LocalCell) + row * sizeof(std::int16_t)) +
-         static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]) * sizeof(RowSpan);
+         static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(dims_[2]) * sizeof(RowSpan) +
+         (near_cells_ ? static_cast<std::size_t>(2 * near_half_ + 1) *
+                            static_cast<std::size_t>(2 * near_half_ + 1) *
+                            static_cast<std::size_t>(2 * near_half_ + 1)
+                      : 0);
 }
 
 void LocalGrid::reset(const CellIndex& origin) {
@@ -236,7 +242,52 @@ void LocalGrid::free_cells_seen_through() {
   }
 }
 
-void LocalGrid::finish(int blur_radius, WorkSplit* split) {
+void LocalGrid::enable_near_keep(int half_cells) {
+  near_half_ = std::clamp(half_cells, 0, MapConfig::kMaxKeepNearCells);
+  const auto side = static_cast<std::size_t>(2 * near_half_ + 1);
+  near_cells_.reset(new LocalCell[side * side * side]());
+}
+
+void LocalGrid::record_near(const NearKeep& near) {
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    const int centre = static_cast<int>(std::floor(near.camera[a]));
+    near_lo_[k] = std::max(centre - near_half_, active_lo_[k]);
+    near_hi_[k] = std::min(centre + near_half_, active_hi_[k]);
+  }
+  near_ = near;
+  // The cube's rows as they are, packed from near_lo_; restore_near picks the
+  // positive ones within the depth (few: most of the cube is free or untouched).
+  const auto n = static_cast<std::size_t>(std::max(near_hi_[0] - near_lo_[0] + 1, 0));
+  std::size_t k = 0;
+  for (int z = near_lo_[2]; z <= near_hi_[2]; ++z) {
+    for (int y = near_lo_[1]; y <= near_hi_[1]; ++y, k += n) {
+      std::memcpy(near_cells_.get() + k, cells_.get() + index(near_lo_[0], y, z), n);
+    }
+  }
+}
+
+void LocalGrid::restore_near() {
+  const auto n = static_cast<std::size_t>(std::max(near_hi_[0] - near_lo_[0] + 1, 0));
+  std::size_t k = 0;
+  for (int z = near_lo_[2]; z <= near_hi_[2]; ++z) {
+    for (int y = near_lo_[1]; y <= near_hi_[1]; ++y, k += n) {
+      const LocalCell* before = near_cells_.get() + k;
+      LocalCell* row = cells_.get() + index(near_lo_[0], y, z);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (before[i] <= 0) continue;  // untouched (INT8_MIN), free or unknown
+        const Eigen::Vector3f centre(static_cast<float>(near_lo_[0]) + static_cast<float>(i) + 0.5f,
+                                     static_cast<float>(y) + 0.5f, static_cast<float>(z) + 0.5f);
+        const float depth = near_.axis_per_cell.dot(centre - near_.camera);
+        if (!(depth > 0.0f && depth <= near_.depth_m)) continue;
+        // A positive cell stays positive through the blur, inside its row's span.
+        row[i] = std::max(row[i], static_cast<LocalCell>((before[i] + 1) >> 1));
+      }
+    }
+  }
+}
+
+void LocalGrid::finish(int blur_radius, WorkSplit* split, const NearKeep* near) {
   if (through_marks_) free_cells_seen_through();
   const int radius = std::clamp(blur_radius, 0, kMaxBlurRadius);
   for (int a = 0; a < 3; ++a) {
@@ -252,6 +303,8 @@ void LocalGrid::finish(int blur_radius, WorkSplit* split) {
   // rows): the x rows (unknown for untouched, their spans, the x blur), then the
   // y lines of each z plane, then the z lines of each y plane. Every part writes
   // rows, planes of its own: the grid is the same for any split.
+  const bool keep_near = near != nullptr && near_cells_ != nullptr && radius > 0;
+  if (keep_near) record_near(*near);
   const int parts = split == nullptr ? 1 : std::min(split->parts(), kMaxFinishParts);
   for (int step = 0; step <= (radius == 0 ? 0 : 2); ++step) {
     for_each_part(split, parts, [&](int part, int all) {
@@ -262,6 +315,7 @@ void LocalGrid::finish(int blur_radius, WorkSplit* split) {
       }
     });
   }
+  if (keep_near) restore_near();
 }
 
 // The x rows of planes z = first + k step: untouched cells to unknown (0), each

@@ -143,6 +143,10 @@ Mapper::Mapper(const MapConfig& config, const CameraModel& camera)
         static_cast<LocalCell>(to_fixed(static_cast<float>(config.see_through))),
         static_cast<LocalCell>(to_fixed(static_cast<float>(config.near_peak_behind()))));
   }
+  if (config.blur_keep_near_m > 0.0) {
+    local_.enable_near_keep(
+        static_cast<int>(std::ceil(config.blur_keep_near_m / config.cell_size_m - 1e-9)));
+  }
   part_filters_.reserve(kMaxDepthParts - 1);
   for (int p = 1; p < kMaxDepthParts; ++p) {
     part_filters_.emplace_back(
@@ -385,10 +389,12 @@ void Mapper::sample_hits_below(const DepthFrameView& frame, const Eigen::Isometr
 
 void Mapper::finish_and_fuse(const Eigen::Vector3f& camera_cells,
                              const Eigen::Isometry3d& world_T_camera) {
-  local_.finish(config_.blur_radius, split_);
+  const Eigen::Vector3f axis_per_cell =
+      (world_T_camera.linear().col(2) * config_.cell_size_m).cast<float>();
+  const LocalGrid::NearKeep near{camera_cells, axis_per_cell,
+                                 static_cast<float>(config_.blur_keep_near_m)};
+  local_.finish(config_.blur_radius, split_, config_.blur_keep_near_m > 0.0 ? &near : nullptr);
   if (config_.fusion == MapConfig::Fusion::kRangeWeighted) {
-    const Eigen::Vector3f axis_per_cell =
-        (world_T_camera.linear().col(2) * config_.cell_size_m).cast<float>();
     local_.weight_occupancy_by_range(camera_cells, axis_per_cell, full_weight_depth_m_,
                                      static_cast<float>(config_.min_weight));
   }

@@ -116,6 +116,13 @@ struct MapConfig {
     return see_through_behind < 0.0 ? see_through : see_through_behind;
   }
   int blur_radius = 1;  // binomial kernel radius (0 = no blur)
+  // Past the paper: a cell whose centre lies within this depth along the optical
+  // axis keeps at least half the occupancy it had before the blur (0 = off). The
+  // blur spreads a surface over eq. (1)'s uncertainty; near the camera Δd is far
+  // under a cell, and a thin post there, one cell between cells seen free, kept
+  // 1/8 of its value (LocalGrid::finish). At most kMaxKeepNearCells cells.
+  double blur_keep_near_m = 0.0;
+  static constexpr int kMaxKeepNearCells = 16;
   // Eq. (7) adds every view alike (kEqual, the paper's); kRangeWeighted scales a
   // view's occupied evidence by (δ_full / δ)², at least min_weight, beyond δ_full,
   // the depth at which eq. (1)'s Δd is full_weight_resolution_cells cells

@@ -56,7 +56,18 @@ class LocalGrid {
   // blurred into the cells behind a surface would call the inside of a trunk free).
   // With a split, its parts share each of the blur's steps (rows, planes of
   // their own): the grid is the same for any split.
-  void finish(int blur_radius, WorkSplit* split = nullptr);
+  // With `near` (MapConfig::blur_keep_near_m), a cell whose centre lies within
+  // near->depth_m along the optical axis keeps at least half the occupancy it
+  // had before the blur; enable_near_keep reserves for it.
+  struct NearKeep {
+    Eigen::Vector3f camera;         // grid units (cell centres at + 0.5)
+    Eigen::Vector3f axis_per_cell;  // the optical axis times the cell size
+    float depth_m = 0.0f;
+  };
+  void finish(int blur_radius, WorkSplit* split = nullptr, const NearKeep* near = nullptr);
+  // Reserves the cube finish() may keep cells of around the camera, 2 half_cells
+  // + 1 a side (half_cells at most MapConfig::kMaxKeepNearCells): at start-up.
+  void enable_near_keep(int half_cells);
   static constexpr int kMaxFinishParts = 8;
   static constexpr int kMaxBlurRadius = 2;
 
@@ -122,8 +133,10 @@ class LocalGrid {
   RowSpan& sheet_span(int axis, int c, int o) {
     return spans_[axis == 1 ? span_index(c, o) : span_index(o, c)];
   }
-  void free_cells_seen_through();    // the touched region; clears the marks for the next frame
-  LocalCell* saved_rows(int part) {  // a part's 2 * kMaxBlurRadius + 1 scratch rows
+  void free_cells_seen_through();  // the touched region; clears the marks for the next frame
+  void record_near(const NearKeep& near);  // the positive cells near the camera, before the blur
+  void restore_near();                     // ... each at least half of it after
+  LocalCell* saved_rows(int part) {        // a part's 2 * kMaxBlurRadius + 1 scratch rows
     return saved_.get() + static_cast<std::size_t>(part) * static_cast<std::size_t>(dims_[0]) *
                               (2 * kMaxBlurRadius + 1);
   }
@@ -158,6 +171,12 @@ class LocalGrid {
   std::array<int, 3> active_lo_;
   std::array<int, 3> active_hi_;
   bool cells_written_ = false;  // false until the first reset filled the whole grid
+  // NearKeep: the cube's cells before the blur (0 where not kept), its bounds.
+  std::unique_ptr<LocalCell[]> near_cells_;
+  int near_half_ = 0;
+  NearKeep near_{};  // this frame's
+  std::array<int, 3> near_lo_{0, 0, 0};
+  std::array<int, 3> near_hi_{-1, -1, -1};
 };
 
 }  // namespace zonemap

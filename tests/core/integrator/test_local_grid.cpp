@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core_test_support.hpp"
+#include "zonemap/common/config.hpp"
 #include "zonemap/integrator/local_grid.hpp"
 #include "zonemap/zones/zone_map.hpp"
 
@@ -285,13 +286,8 @@ TEST(LocalGrid, TheBlurMakesNoCellFreeThatWasNotFree) {
   EXPECT_LT(lone.at(0, 0, 0), 0);
 }
 
-TEST(LocalGrid, AThinPostSeenUpCloseStaysOccupiedThroughTheBlur) {
-  // A post thinner than a cell seen from a few metres: one column of cells its
-  // rays ended in (m̂ = 1), every cell around it crossed free by the rays that
-  // passed beside it. The kernel alone gives the column (-1 + 2 - 1) / 4 = 0 in
-  // x and then free in y; it stays occupied, a quarter of its value (x, y
-  // passes), the column's own z neighbours keeping it there in z.
-  LocalGrid grid({7, 7, 6});
+// A 7 x 7 x 6 grid: the column x = y = 3 occupied (m̂ = 1), every other cell free.
+void draw_thin_post(LocalGrid& grid) {
   grid.reset(CellIndex{});
   grid.extend_touched(0, 0, 0, 6, 6, 5);
   for (int z = 0; z < 6; ++z)
@@ -299,10 +295,42 @@ TEST(LocalGrid, AThinPostSeenUpCloseStaysOccupiedThroughTheBlur) {
       for (int x = 0; x < 7; ++x)
         grid.write_max(x, y, z,
                        static_cast<LocalCell>(x == 3 && y == 3 ? kCellScale : -kCellScale));
+}
+
+TEST(LocalGrid, AThinPostSeenUpCloseStaysOccupiedThroughTheBlur) {
+  // A post thinner than a cell seen from a few metres: one column of cells its
+  // rays ended in (m̂ = 1), every cell around it crossed free by the rays that
+  // passed beside it. The kernel alone gives the column (-1 + 2 - 1) / 4 = 0 in
+  // x and then free in y; it stays occupied, a quarter of its value (x, y
+  // passes), the column's own z neighbours keeping it there in z.
+  LocalGrid grid({7, 7, 6});
+  draw_thin_post(grid);
   grid.finish(1);
   for (int z = 1; z < 5; ++z) EXPECT_EQ(grid.at(3, 3, z), kCellScale / 4) << "z " << z;
   EXPECT_LT(grid.at(3, 2, 2), 0) << "the free space beside it stays free";
   EXPECT_LT(grid.at(1, 3, 2), 0);
+}
+
+// MapConfig::blur_keep_near_m: near the camera eq. (1)'s Δd is far under a cell,
+// and the post of the test above keeps half its value instead of a quarter;
+// beyond the depth, behind the camera or without the reservation, the plain rule.
+TEST(LocalGrid, AThinPostNearTheCameraKeepsHalfItsValueThroughTheBlur) {
+  const auto post_after = [](bool reserve, float camera_y, float depth_m) {
+    LocalGrid grid({7, 7, 6});
+    if (reserve) grid.enable_near_keep(MapConfig::kMaxKeepNearCells);
+    draw_thin_post(grid);
+    // 0.5 m cells, the camera looking along +y: the post 0.5 (3.5 - camera_y) m ahead.
+    const LocalGrid::NearKeep near{{3.5f, camera_y, 3.0f}, {0.0f, 0.5f, 0.0f}, depth_m};
+    grid.finish(1, nullptr, &near);
+    for (int z = 1; z < 5; ++z) EXPECT_EQ(grid.at(3, 3, z), grid.at(3, 3, 2)) << "z " << z;
+    EXPECT_LT(grid.at(3, 2, 2), 0) << "the free space beside it stays free";
+    EXPECT_LT(grid.at(2, 3, 2), 0);
+    return static_cast<int>(grid.at(3, 3, 2));
+  };
+  EXPECT_EQ(post_after(true, -2.0f, 8.0f), kCellScale / 2) << "2.75 m ahead, within 8 m";
+  EXPECT_EQ(post_after(true, -2.0f, 2.5f), kCellScale / 4) << "beyond 2.5 m: the plain blur";
+  EXPECT_EQ(post_after(true, 5.0f, 8.0f), kCellScale / 4) << "behind the camera";
+  EXPECT_EQ(post_after(false, -2.0f, 8.0f), kCellScale / 4) << "nothing reserved";
 }
 
 TEST(LocalGrid, UntouchedCellsBecomeUnknown) {

@@ -134,7 +134,7 @@ class LocalGrid {
     return spans_[axis == 1 ? span_index(c, o) : span_index(o, c)];
   }
   void free_cells_seen_through();  // the touched region; clears the marks for the next frame
-  void record_near(const NearKeep& near);  // the positive cells near the camera, before the blur
+  void record_near(const NearKeep& near);  // the cube around the camera, before the blur
   void restore_near();                     // ... each at least half of it after
   LocalCell* saved_rows(int part) {        // a part's 2 * kMaxBlurRadius + 1 scratch rows
     return saved_.get() + static_cast<std::size_t>(part) * static_cast<std::size_t>(dims_[0]) *
@@ -171,7 +171,7 @@ class LocalGrid {
   std::array<int, 3> active_lo_;
   std::array<int, 3> active_hi_;
   bool cells_written_ = false;  // false until the first reset filled the whole grid
-  // NearKeep: the cube's cells before the blur (0 where not kept), its bounds.
+  // NearKeep: the cube's cells as they were before the blur, its bounds (grid cells).
   std::unique_ptr<LocalCell[]> near_cells_;
   int near_half_ = 0;
   NearKeep near_{};  // this frame's

@@ -85,6 +85,13 @@ tools::Evaluation map_at_full_noise(const std::string& name, std::uint64_t seed)
   return map_with_noise(name, seed, 0.25, 0.04);
 }
 
+bool detected(const tools::Evaluation& e, const std::string& name) {
+  for (const tools::ObjectResult& o : e.objects) {
+    if (o.name == name && o.detected) return true;
+  }
+  return false;
+}
+
 std::vector<tools::RunBox> obstacles(const std::vector<tools::RunBox>& boxes) {
   std::vector<tools::RunBox> out;
   for (const auto& b : boxes)
@@ -144,9 +151,7 @@ TEST(FeatureScenarios, AHoverSeesThePostsAndTheWallBesideIt) {
   for (const std::uint64_t seed : {1u, 7u}) {
     const tools::Evaluation e = map_at_full_noise("hover-near", seed);
     for (const char* name : {"post_a", "post_b", "wall", "tree"}) {
-      bool found = false;
-      for (const tools::ObjectResult& o : e.objects) found |= o.name == name && o.detected;
-      EXPECT_TRUE(found) << name << ", seed " << seed;
+      EXPECT_TRUE(detected(e, name)) << name << ", seed " << seed;
     }
     EXPECT_EQ(e.boxes_touching_no_object, 0) << "seed " << seed;
   }
@@ -159,9 +164,7 @@ TEST(FeatureScenarios, AHoverSeesThePostsAndTheWallBesideIt) {
 TEST(FeatureScenarios, AHoverSeesBothThinPostsAtHalfTheNoise) {
   const tools::Evaluation e = map_with_noise("hover-near", 7, 0.125, 0.02);
   for (const char* name : {"post_a", "post_b", "wall", "tree"}) {
-    bool found = false;
-    for (const tools::ObjectResult& o : e.objects) found |= o.name == name && o.detected;
-    EXPECT_TRUE(found) << name;
+    EXPECT_TRUE(detected(e, name)) << name;
   }
   EXPECT_EQ(e.boxes_touching_no_object, 0);
 }
